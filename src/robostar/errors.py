@@ -1,0 +1,221 @@
+"""The one exception tree of robostar.
+
+Every error robostar raises is a :class:`RobostarError`. The tree splits errors the caller caused
+(refused before anything reaches the wire) from errors the controller or the line caused::
+
+    RobostarError
+    ├── UsageError (ValueError)             the caller's argument is wrong; nothing was sent
+    │   └── FieldError                      a field breaks the manual's limits (names the field)
+    │       └── PacketTooLongError          the packet would exceed 250 bytes
+    ├── ProtocolError                       the peer's bytes or behaviour break the protocol
+    │   ├── FrameError                      the frame decoder was misused or fed a wrong type
+    │   ├── LinkRuleError                   a link-layer rule was broken (names state and event)
+    │   └── MalformedAnswerError            an answer packet does not decode as its command's
+    ├── ControllerError                     the controller answered with an error flag
+    │   ├── RejectedError         (0x31)    the packet was not understood
+    │   ├── FunctionFailedError   (0x32)    understood, but cannot be done now (KD reason)
+    │   └── NotSupportedError     (0x33)    not supported by this controller
+    └── LineError                           the line failed
+        ├── ReplyTimeoutError (TimeoutError)    no answer in time
+        ├── OutcomeUnknownError             a state-changing command may or may not have run
+        ├── NakLimitError                   the peer refused the same packet too many times
+        ├── LinkResetError                  RST: the exchange was aborted
+        ├── UploadIncompleteError           an FB upload did not finish (or could not be verified)
+        └── PortError (OSError)             the port or socket could not be opened or used
+
+Where a controller error has a KD reason, it is in ``reason``.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "ControllerError",
+    "FieldError",
+    "FrameError",
+    "FunctionFailedError",
+    "LineError",
+    "LinkResetError",
+    "LinkRuleError",
+    "MalformedAnswerError",
+    "NakLimitError",
+    "NotSupportedError",
+    "OutcomeUnknownError",
+    "PacketTooLongError",
+    "PortError",
+    "ProtocolError",
+    "RejectedError",
+    "ReplyTimeoutError",
+    "RobostarError",
+    "UploadIncompleteError",
+    "UsageError",
+    "error_for_flag",
+]
+
+# Flag bytes, repeated here (not imported) so that errors.py stays the root of the import graph.
+_FLAG_REJECTED = 0x31
+_FLAG_FAILED = 0x32
+_FLAG_UNSUPPORTED = 0x33
+
+
+class RobostarError(Exception):
+    """Base of every error robostar raises."""
+
+
+class UsageError(RobostarError, ValueError):
+    """The caller passed something wrong. Nothing was sent to the controller."""
+
+
+class FieldError(UsageError):
+    """A field value breaks the manual's limits.
+
+    ``command`` is the two-letter code (or ``""``), ``field`` the field's name. ``flag`` is the
+    answer flag a controller gives for this fault when it meets it in a request (0x31 by default;
+    the manual names 0x32 or 0x33 for some fields), so that the simulator answers as an N1 would.
+    """
+
+    def __init__(self, command: str, field: str, message: str, *, flag: int = _FLAG_REJECTED):
+        self.command = command
+        self.field = field
+        self.message = message
+        self.flag = flag
+        where = f"{command} {field}" if command else field
+        super().__init__(f"{where}: {message}")
+
+
+class PacketTooLongError(FieldError):
+    """The packet would be longer than the protocol's 250 bytes."""
+
+
+class ProtocolError(RobostarError):
+    """The peer broke the protocol."""
+
+
+class FrameError(ProtocolError):
+    """The frame decoder was given something it cannot take (not bytes)."""
+
+
+class LinkRuleError(ProtocolError):
+    """A link-layer rule was broken: ``event`` is not allowed in ``state``."""
+
+    def __init__(self, role: str, state: str, event: str, detail: str = ""):
+        self.role = role
+        self.state = state
+        self.event = event
+        text = f"{role} link in state {state} cannot take {event}"
+        super().__init__(f"{text}: {detail}" if detail else text)
+
+
+class MalformedAnswerError(ProtocolError):
+    """An answer from the controller does not decode as the command's answer."""
+
+    def __init__(self, command: str, message: str, raw: bytes = b""):
+        self.command = command
+        self.raw = raw
+        super().__init__(f"{command} answer: {message}" + (f" (raw {raw!r})" if raw else ""))
+
+
+class ControllerError(RobostarError):
+    """The controller answered a command with an error flag."""
+
+    flag: int = 0
+
+    def __init__(self, command: str, reason: str | None = None):
+        self.command = command
+        self.reason = reason
+        super().__init__(self._text())
+
+    def _text(self) -> str:
+        base = f"{self.command}: {self.describe}"
+        return f"{base}: {self.reason}" if self.reason else base
+
+    describe = "the controller answered with an error"
+
+
+class RejectedError(ControllerError):
+    """Flag 0x31: the controller did not understand the packet (bad field value or format)."""
+
+    flag = _FLAG_REJECTED
+    describe = "the controller rejected the packet (flag 0x31)"
+
+
+class FunctionFailedError(ControllerError):
+    """Flag 0x32: the command was understood but cannot be done now; ``reason`` is KD's text."""
+
+    flag = _FLAG_FAILED
+    describe = "the function failed (flag 0x32)"
+
+
+class NotSupportedError(ControllerError):
+    """Flag 0x33: the controller does not support this function."""
+
+    flag = _FLAG_UNSUPPORTED
+    describe = "not supported by this controller (flag 0x33)"
+
+
+class LineError(RobostarError):
+    """The line between host and controller failed."""
+
+
+class ReplyTimeoutError(LineError, TimeoutError):
+    """No answer came in time. Read-only commands may be retried safely."""
+
+    def __init__(self, command: str, timeout: float, detail: str = ""):
+        self.command = command
+        self.timeout = timeout
+        text = f"{command}: no answer within {timeout:g} s"
+        super().__init__(f"{text} ({detail})" if detail else text)
+
+
+class OutcomeUnknownError(LineError):
+    """A state-changing command was sent but its answer was lost.
+
+    The controller may or may not have carried it out. robostar never resends such a command on
+    its own; check the controller's state (``status()``, ``position()``) before deciding.
+    """
+
+    def __init__(self, command: str, detail: str = ""):
+        self.command = command
+        text = (
+            f"{command}: the outcome is unknown - the command may or may not have been carried "
+            "out; check the controller's state before sending it again"
+        )
+        super().__init__(f"{text} ({detail})" if detail else text)
+
+
+class NakLimitError(LineError):
+    """The peer answered NAK to the same packet too many times."""
+
+    def __init__(self, command: str, naks: int):
+        self.command = command
+        self.naks = naks
+        super().__init__(f"{command}: the packet was refused (NAK) {naks} times; line is noisy")
+
+
+class LinkResetError(LineError):
+    """The exchange was aborted by RST (sent by the peer, or by us after a rule break)."""
+
+    def __init__(self, command: str, detail: str = "RST received"):
+        self.command = command
+        super().__init__(f"{command}: exchange aborted: {detail}")
+
+
+class UploadIncompleteError(LineError):
+    """An FB upload did not complete, or its completion could not be confirmed."""
+
+
+class PortError(LineError, OSError):
+    """The port or socket could not be opened or used; the message says what to do."""
+
+
+def error_for_flag(flag: int, command: str, reason: str | None = None) -> ControllerError:
+    """The exception for an answer's error flag (0x31, 0x32 or 0x33)."""
+    cls: type[ControllerError]
+    if flag == _FLAG_REJECTED:
+        cls = RejectedError
+    elif flag == _FLAG_FAILED:
+        cls = FunctionFailedError
+    elif flag == _FLAG_UNSUPPORTED:
+        cls = NotSupportedError
+    else:
+        raise ValueError(f"flag 0x{flag:02X} is not an error flag")
+    return cls(command, reason)

@@ -1,0 +1,219 @@
+"""Packet framing: ``STX DATA ETX LRC`` and the lone control bytes, with no I/O.
+
+:func:`encode_packet` builds a packet. :class:`FrameDecoder` is fed bytes in any split and yields
+:class:`Packet`, :class:`Control` and :class:`CorruptPacket` events. It keeps only the unfinished
+frame between feeds, so a bad LRC or an overlong frame never wedges it: it reports the damage and
+resynchronises on the next STX (the lesson of pymodbus's framer bugs).
+"""
+
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass
+
+from robostar.errors import FrameError, PacketTooLongError
+
+__all__ = [
+    "ACK",
+    "DUMMY",
+    "ETX",
+    "MAX_PACKET",
+    "NAK",
+    "RST",
+    "STX",
+    "Control",
+    "CorruptPacket",
+    "CorruptReason",
+    "FrameDecoder",
+    "FrameEvent",
+    "Packet",
+    "encode_packet",
+    "lrc",
+]
+
+STX = 0x02
+ETX = 0x03
+ACK = 0x06
+NAK = 0x15
+RST = 0x12
+DUMMY = 0xFF
+MAX_PACKET = 250
+"""Longest packet, STX to LRC included."""
+
+_MAX_DATA = MAX_PACKET - 3
+_CONTROL_BYTES = frozenset((ACK, NAK, RST))
+
+
+def lrc(data: bytes | bytearray) -> int:
+    """XOR of every data byte (the dummy byte included), as the manual computes it."""
+    value = 0
+    for byte in data:
+        value ^= byte
+    return value
+
+
+def encode_packet(data: bytes) -> bytes:
+    """Frame ``data`` as ``STX data ETX LRC``.
+
+    A zero LRC is sent as 0x03, as the manual says. Data longer than the 250-byte packet allows,
+    or data holding STX/ETX (which no field may contain), is refused before anything is sent.
+    """
+    if len(data) > _MAX_DATA:
+        raise PacketTooLongError(
+            "", "packet", f"{len(data) + 3} bytes is over the {MAX_PACKET}-byte limit"
+        )
+    if STX in data or ETX in data:
+        raise PacketTooLongError("", "packet", "data may not contain STX (0x02) or ETX (0x03)")
+    check = lrc(data)
+    return bytes((STX, *data, ETX, check if check else ETX))
+
+
+@dataclass(frozen=True, slots=True)
+class Packet:
+    """A whole packet with a good LRC; ``data`` is what stood between STX and ETX."""
+
+    data: bytes
+
+
+class ControlKind(enum.IntEnum):
+    ACK = ACK
+    NAK = NAK
+    RST = RST
+
+
+@dataclass(frozen=True, slots=True)
+class Control:
+    """A lone control byte: ACK, NAK or RST."""
+
+    kind: ControlKind
+
+
+class CorruptReason(enum.Enum):
+    BAD_LRC = "bad LRC"
+    TOO_LONG = "longer than 250 bytes"
+    TRUNCATED = "cut short by a new STX"
+
+
+@dataclass(frozen=True, slots=True)
+class CorruptPacket:
+    """A packet that arrived damaged; the receiver should answer NAK."""
+
+    reason: CorruptReason
+    raw: bytes
+
+
+FrameEvent = Packet | Control | CorruptPacket
+
+_CONTROL_EVENTS = {kind.value: Control(kind) for kind in ControlKind}
+
+
+class _State(enum.Enum):
+    HUNT = "hunt"  # between frames: control bytes count, anything else is line noise
+    DATA = "data"  # inside a frame, collecting data up to ETX
+    LRC = "lrc"  # ETX seen; the next byte is the LRC, whatever its value
+    SKIP = "skip"  # overlong frame already reported; drop bytes up to its end
+    SKIP_LRC = "skip_lrc"  # overlong frame's ETX seen; drop its LRC byte
+
+
+class FrameDecoder:
+    """Incremental decoder: :meth:`feed` bytes, get events.
+
+    Between frames, ACK/NAK/RST are control events and other bytes are counted in
+    :attr:`discarded`. A frame runs from STX to the byte after ETX. A new STX inside a frame
+    ends the old one as ``TRUNCATED``; a frame passing 250 bytes is reported ``TOO_LONG`` at once
+    and skipped to its end.
+    """
+
+    __slots__ = ("_buf", "_state", "discarded")
+
+    def __init__(self) -> None:
+        self._buf = bytearray()
+        self._state = _State.HUNT
+        self.discarded = 0
+
+    @property
+    def pending(self) -> int:
+        """Bytes of an unfinished frame held for the next feed."""
+        return len(self._buf)
+
+    def reset(self) -> None:
+        """Forget any unfinished frame (after RST, or when the line is reopened)."""
+        self._buf.clear()
+        self._state = _State.HUNT
+
+    def feed(self, data: bytes | bytearray | memoryview) -> list[FrameEvent]:
+        """Take bytes from the line; return the events they complete, in order."""
+        if not isinstance(data, bytes | bytearray | memoryview):
+            raise FrameError(f"FrameDecoder.feed takes bytes, not {type(data).__name__}")
+        events: list[FrameEvent] = []
+        buf = self._buf
+        state = self._state
+        view = bytes(data)
+        i = 0
+        n = len(view)
+        while i < n:
+            if state is _State.HUNT:
+                # Fast path: find the next byte that matters.
+                byte = view[i]
+                i += 1
+                if byte == STX:
+                    buf.clear()
+                    state = _State.DATA
+                elif byte in _CONTROL_BYTES:
+                    events.append(_CONTROL_EVENTS[byte])
+                else:
+                    self.discarded += 1
+            elif state is _State.DATA:
+                # Copy a run of data bytes at once up to the next ETX or STX.
+                etx = view.find(b"\x03", i)
+                stx = view.find(b"\x02", i)
+                stop = n if etx < 0 else etx
+                if 0 <= stx < stop:
+                    buf += view[i:stx]
+                    events.append(CorruptPacket(CorruptReason.TRUNCATED, bytes((STX, *buf))))
+                    buf.clear()
+                    i = stx + 1
+                    continue
+                buf += view[i:stop]
+                i = stop
+                if len(buf) > _MAX_DATA:
+                    events.append(CorruptPacket(CorruptReason.TOO_LONG, bytes((STX, *buf))))
+                    buf.clear()
+                    state = _State.SKIP
+                    continue
+                if etx >= 0:
+                    i = etx + 1
+                    state = _State.LRC
+            elif state is _State.LRC:
+                got = view[i]
+                i += 1
+                want = lrc(buf)
+                if got == want or (want == 0 and got == ETX):
+                    events.append(Packet(bytes(buf)))
+                else:
+                    raw = bytes((STX, *buf, ETX, got))
+                    events.append(CorruptPacket(CorruptReason.BAD_LRC, raw))
+                buf.clear()
+                state = _State.HUNT
+            elif state is _State.SKIP_LRC:
+                i += 1
+                self.discarded += 1
+                state = _State.HUNT
+            else:  # SKIP
+                etx = view.find(b"\x03", i)
+                stx = view.find(b"\x02", i)
+                if stx >= 0 and (etx < 0 or stx < etx):
+                    self.discarded += stx - i
+                    i = stx + 1
+                    buf.clear()
+                    state = _State.DATA
+                elif etx >= 0:
+                    # Drop through ETX; the LRC byte after it goes in SKIP_LRC.
+                    self.discarded += etx + 1 - i
+                    i = etx + 1
+                    state = _State.SKIP_LRC
+                else:
+                    self.discarded += n - i
+                    i = n
+        self._state = state
+        return events

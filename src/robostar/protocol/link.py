@@ -1,0 +1,738 @@
+"""The link layer (ACK/NAK/RST, resends, timeouts) as one transition table, for both roles.
+
+No I/O and no clock: the driver feeds bytes with :meth:`Link.receive_data`, takes bytes to write
+from :meth:`Link.data_to_send`, asks :meth:`Link.next_deadline` when to call
+:meth:`Link.handle_timeout`, and passes the current time (any monotonic seconds) into every call.
+Each call returns the events it produced.
+
+Every allowed ``(state, input)`` pair is in :data:`TRANSITIONS`; a pair that is not there is a
+rule broken by the peer (the link sends RST and reports :class:`ExchangeFailed` with a
+:class:`~robostar.errors.LinkRuleError`) or, for an app call, raised as LinkRuleError at once.
+``docs/protocol.md`` draws the table.
+"""
+
+from __future__ import annotations
+
+import enum
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+from robostar.errors import LinkRuleError
+from robostar.protocol.fields import FLAG_END, FLAG_OK
+from robostar.protocol.frame import (
+    ACK,
+    NAK,
+    RST,
+    Control,
+    ControlKind,
+    CorruptPacket,
+    FrameDecoder,
+    FrameEvent,
+    Packet,
+    encode_packet,
+)
+from robostar.protocol.packets import Shape, split_answer
+
+__all__ = [
+    "TRANSITIONS",
+    "After",
+    "AnswerReceived",
+    "ControllerLink",
+    "ExchangeComplete",
+    "ExchangeFailed",
+    "FailReason",
+    "HostLink",
+    "Ignored",
+    "Input",
+    "Link",
+    "LinkEvent",
+    "RequestReceived",
+    "Role",
+    "State",
+    "UploadPacketReceived",
+    "UploadReady",
+]
+
+MAX_NAKS = 3
+"""NAKs in a row for one packet before RST (the receiver's 4th refusal is RST)."""
+MAX_RESENDS = 3
+"""Resends of an unacknowledged answer by the controller before it drops the exchange."""
+
+
+class Role(enum.Enum):
+    HOST = "host"
+    CONTROLLER = "controller"
+
+
+class State(enum.Enum):
+    # host
+    IDLE = "IDLE"
+    WAIT_ANSWER = "WAIT_ANSWER"
+    WAIT_MORE = "WAIT_MORE"
+    WAIT_SECOND = "WAIT_SECOND"
+    UPLOAD_WAIT_REPLY = "UPLOAD_WAIT_REPLY"
+    UPLOAD_READY = "UPLOAD_READY"
+    UPLOAD_WAIT_ACK = "UPLOAD_WAIT_ACK"
+    # controller
+    LISTEN = "LISTEN"
+    HANDLING = "HANDLING"
+    WAIT_ACK = "WAIT_ACK"
+    WORKING = "WORKING"
+    UPLOAD_WAIT_PACKET = "UPLOAD_WAIT_PACKET"
+    UPLOAD_HANDLING = "UPLOAD_HANDLING"
+
+
+class Input(enum.Enum):
+    # from the line
+    PACKET = "packet"
+    CORRUPT = "corrupt packet"
+    ACK = "ACK"
+    NAK = "NAK"
+    RST = "RST"
+    TIMEOUT = "timeout"
+    # from the application
+    SEND_REQUEST = "send_request"
+    SEND_LINE = "send_upload_line"
+    SEND_END = "send_upload_end"
+    SEND_ANSWER = "send_answer"
+    ACCEPT_UPLOAD = "accept_upload"
+    ABORT = "abort"
+
+
+_APP_INPUTS = frozenset(
+    (
+        Input.SEND_REQUEST,
+        Input.SEND_LINE,
+        Input.SEND_END,
+        Input.SEND_ANSWER,
+        Input.ACCEPT_UPLOAD,
+        Input.ABORT,
+    )
+)
+
+
+class After(enum.Enum):
+    """What a controller expects after the answer packets it sends."""
+
+    DONE = "done"
+    """Each packet is ACKed; after the last, the exchange is complete."""
+    SECOND_PHASE = "second phase"
+    """Each packet is ACKed; then the application sends the second answer (DB, DC, CE)."""
+    UPLOAD = "upload"
+    """FB: no ACK; the host's next upload packet follows."""
+    FINAL = "final"
+    """No ACK; the exchange ends at once (an FB error reply)."""
+
+
+class FailReason(enum.Enum):
+    TIMEOUT = "timeout"
+    RESET = "reset by peer"
+    NAK_LIMIT = "NAK limit"
+    RULE = "rule broken"
+    ABORTED = "aborted"
+    SUPERSEDED = "superseded by a new request"
+
+
+# -- events ---------------------------------------------------------------------------------
+@dataclass(frozen=True, slots=True)
+class AnswerReceived:
+    """Host: an answer packet of the current exchange (already ACKed where the rules say)."""
+
+    data: bytes
+    flag: int
+    final: bool
+
+
+@dataclass(frozen=True, slots=True)
+class UploadReady:
+    """Host, FB: the controller accepted the last packet; send the next line or the end."""
+
+    data: bytes
+
+
+@dataclass(frozen=True, slots=True)
+class ExchangeComplete:
+    """The exchange ended as the rules say (error flags included)."""
+
+
+@dataclass(frozen=True, slots=True)
+class ExchangeFailed:
+    """The exchange ended abnormally; ``error`` is set for a rule break."""
+
+    reason: FailReason
+    state: State
+    detail: str = ""
+    error: LinkRuleError | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class RequestReceived:
+    """Controller: a request packet; answer it with :meth:`ControllerLink.send_answer`."""
+
+    data: bytes
+
+
+@dataclass(frozen=True, slots=True)
+class UploadPacketReceived:
+    """Controller, FB: a content packet (``end`` False) or the closing 0x34 (``end`` True)."""
+
+    data: bytes
+    end: bool
+
+
+@dataclass(frozen=True, slots=True)
+class Ignored:
+    """Something arrived that the rules say to drop (a stray ACK, a resent packet); for traces."""
+
+    what: str
+    state: State
+
+
+LinkEvent = (
+    AnswerReceived
+    | UploadReady
+    | ExchangeComplete
+    | ExchangeFailed
+    | RequestReceived
+    | UploadPacketReceived
+    | Ignored
+)
+
+_Handler = Callable[["Link", bytes], None]
+
+_H = Role.HOST
+_C = Role.CONTROLLER
+
+TRANSITIONS: dict[tuple[Role, State, Input], str] = {
+    # ---- host ----------------------------------------------------------------------------
+    (_H, State.IDLE, Input.SEND_REQUEST): "_h_send_request",
+    (_H, State.IDLE, Input.PACKET): "_h_stray_packet",
+    (_H, State.IDLE, Input.CORRUPT): "_ignore",
+    (_H, State.IDLE, Input.ACK): "_ignore",
+    (_H, State.IDLE, Input.NAK): "_ignore",
+    (_H, State.IDLE, Input.RST): "_ignore",
+    (_H, State.IDLE, Input.ABORT): "_ignore",
+    (_H, State.WAIT_ANSWER, Input.PACKET): "_h_answer",
+    (_H, State.WAIT_ANSWER, Input.CORRUPT): "_nak_corrupt",
+    (_H, State.WAIT_ANSWER, Input.NAK): "_resend",
+    (_H, State.WAIT_ANSWER, Input.ACK): "_ignore",
+    (_H, State.WAIT_ANSWER, Input.RST): "_reset_by_peer",
+    (_H, State.WAIT_ANSWER, Input.TIMEOUT): "_h_timeout",
+    (_H, State.WAIT_ANSWER, Input.ABORT): "_abort",
+    (_H, State.WAIT_MORE, Input.PACKET): "_h_answer",
+    (_H, State.WAIT_MORE, Input.CORRUPT): "_nak_corrupt",
+    (_H, State.WAIT_MORE, Input.ACK): "_ignore",
+    (_H, State.WAIT_MORE, Input.NAK): "_ignore",
+    (_H, State.WAIT_MORE, Input.RST): "_reset_by_peer",
+    (_H, State.WAIT_MORE, Input.TIMEOUT): "_h_timeout",
+    (_H, State.WAIT_MORE, Input.ABORT): "_abort",
+    (_H, State.WAIT_SECOND, Input.PACKET): "_h_answer",
+    (_H, State.WAIT_SECOND, Input.CORRUPT): "_nak_corrupt",
+    (_H, State.WAIT_SECOND, Input.ACK): "_ignore",
+    (_H, State.WAIT_SECOND, Input.NAK): "_ignore",
+    (_H, State.WAIT_SECOND, Input.RST): "_reset_by_peer",
+    (_H, State.WAIT_SECOND, Input.TIMEOUT): "_h_timeout",
+    (_H, State.WAIT_SECOND, Input.ABORT): "_abort",
+    (_H, State.UPLOAD_WAIT_REPLY, Input.PACKET): "_h_upload_reply",
+    (_H, State.UPLOAD_WAIT_REPLY, Input.CORRUPT): "_nak_corrupt",
+    (_H, State.UPLOAD_WAIT_REPLY, Input.NAK): "_resend",
+    (_H, State.UPLOAD_WAIT_REPLY, Input.ACK): "_ignore",
+    (_H, State.UPLOAD_WAIT_REPLY, Input.RST): "_reset_by_peer",
+    (_H, State.UPLOAD_WAIT_REPLY, Input.TIMEOUT): "_h_timeout",
+    (_H, State.UPLOAD_WAIT_REPLY, Input.ABORT): "_abort",
+    (_H, State.UPLOAD_READY, Input.SEND_LINE): "_h_send_line",
+    (_H, State.UPLOAD_READY, Input.SEND_END): "_h_send_end",
+    (_H, State.UPLOAD_READY, Input.ACK): "_ignore",
+    (_H, State.UPLOAD_READY, Input.NAK): "_ignore",
+    (_H, State.UPLOAD_READY, Input.RST): "_reset_by_peer",
+    (_H, State.UPLOAD_READY, Input.ABORT): "_abort",
+    (_H, State.UPLOAD_WAIT_ACK, Input.ACK): "_h_upload_done",
+    (_H, State.UPLOAD_WAIT_ACK, Input.PACKET): "_h_upload_final_reply",
+    (_H, State.UPLOAD_WAIT_ACK, Input.CORRUPT): "_nak_corrupt",
+    (_H, State.UPLOAD_WAIT_ACK, Input.NAK): "_resend",
+    (_H, State.UPLOAD_WAIT_ACK, Input.RST): "_reset_by_peer",
+    (_H, State.UPLOAD_WAIT_ACK, Input.TIMEOUT): "_h_timeout",
+    (_H, State.UPLOAD_WAIT_ACK, Input.ABORT): "_abort",
+    # ---- controller ----------------------------------------------------------------------
+    (_C, State.LISTEN, Input.PACKET): "_c_request",
+    (_C, State.LISTEN, Input.CORRUPT): "_nak_corrupt",
+    (_C, State.LISTEN, Input.ACK): "_ignore",
+    (_C, State.LISTEN, Input.NAK): "_ignore",
+    (_C, State.LISTEN, Input.RST): "_ignore",
+    (_C, State.LISTEN, Input.ABORT): "_ignore",
+    (_C, State.HANDLING, Input.SEND_ANSWER): "_c_send_answer",
+    (_C, State.HANDLING, Input.RST): "_reset_by_peer",
+    (_C, State.HANDLING, Input.ACK): "_ignore",
+    (_C, State.HANDLING, Input.NAK): "_ignore",
+    (_C, State.HANDLING, Input.CORRUPT): "_nak_corrupt",
+    (_C, State.HANDLING, Input.ABORT): "_abort",
+    (_C, State.WAIT_ACK, Input.ACK): "_c_acked",
+    (_C, State.WAIT_ACK, Input.NAK): "_resend",
+    (_C, State.WAIT_ACK, Input.TIMEOUT): "_c_ack_timeout",
+    (_C, State.WAIT_ACK, Input.PACKET): "_c_superseded",
+    (_C, State.WAIT_ACK, Input.CORRUPT): "_nak_corrupt",
+    (_C, State.WAIT_ACK, Input.RST): "_reset_by_peer",
+    (_C, State.WAIT_ACK, Input.ABORT): "_abort",
+    (_C, State.WORKING, Input.SEND_ANSWER): "_c_send_answer",
+    (_C, State.WORKING, Input.PACKET): "_c_superseded",
+    (_C, State.WORKING, Input.CORRUPT): "_nak_corrupt",
+    (_C, State.WORKING, Input.ACK): "_ignore",
+    (_C, State.WORKING, Input.NAK): "_ignore",
+    (_C, State.WORKING, Input.RST): "_reset_by_peer",
+    (_C, State.WORKING, Input.ABORT): "_abort",
+    (_C, State.UPLOAD_WAIT_PACKET, Input.PACKET): "_c_upload_packet",
+    (_C, State.UPLOAD_WAIT_PACKET, Input.CORRUPT): "_nak_corrupt",
+    (_C, State.UPLOAD_WAIT_PACKET, Input.NAK): "_resend",
+    (_C, State.UPLOAD_WAIT_PACKET, Input.ACK): "_ignore",
+    (_C, State.UPLOAD_WAIT_PACKET, Input.TIMEOUT): "_c_upload_timeout",
+    (_C, State.UPLOAD_WAIT_PACKET, Input.RST): "_reset_by_peer",
+    (_C, State.UPLOAD_WAIT_PACKET, Input.ABORT): "_abort",
+    (_C, State.UPLOAD_HANDLING, Input.SEND_ANSWER): "_c_send_answer",
+    (_C, State.UPLOAD_HANDLING, Input.ACCEPT_UPLOAD): "_c_accept_upload",
+    (_C, State.UPLOAD_HANDLING, Input.RST): "_reset_by_peer",
+    (_C, State.UPLOAD_HANDLING, Input.ACK): "_ignore",
+    (_C, State.UPLOAD_HANDLING, Input.NAK): "_ignore",
+    (_C, State.UPLOAD_HANDLING, Input.CORRUPT): "_nak_corrupt",
+    (_C, State.UPLOAD_HANDLING, Input.ABORT): "_abort",
+}
+"""Every allowed (role, state, input) and its handler; anything else breaks a rule."""
+
+_CONTROL_INPUT = {
+    ControlKind.ACK: Input.ACK,
+    ControlKind.NAK: Input.NAK,
+    ControlKind.RST: Input.RST,
+}
+_ERROR_FLAGS = frozenset((0x31, 0x32, 0x33))
+
+
+class Link:
+    """The link state machine for one end of the line. Use :class:`HostLink` or
+    :class:`ControllerLink`."""
+
+    role: Role
+    _idle: State
+
+    def __init__(self, *, timeout: float = 2.0, resend_gap: float = 0.25):
+        self.timeout = timeout
+        """Reply timeout (host) / ACK timeout (controller), seconds."""
+        self.resend_gap = resend_gap
+        """Host: a packet equal to the one just ACKed, arriving at least this long after our
+        ACK, is the controller resending it (our ACK was lost), not new data."""
+        self.state = self._idle
+        self.decoder = FrameDecoder()
+        self._out = bytearray()
+        self._events: list[LinkEvent] = []
+        self._deadline: float | None = None
+        self._now = 0.0
+        self._last_sent = b""  # framed, for resends
+        self._naks = 0  # NAKs received for _last_sent
+        self._corrupt = 0  # corrupt packets received in a row
+        self._resends = 0  # controller: timeout resends of _last_sent
+        self._last_received = b""  # host: last answer data, for resend detection
+        self._last_ack_at = 0.0
+
+    # -- driver interface ------------------------------------------------------------------
+    def receive_data(self, data: bytes, now: float) -> list[LinkEvent]:
+        """Feed bytes from the line."""
+        self._now = now
+        for event in self.decoder.feed(data):
+            self._dispatch_frame(event)
+        return self._take_events()
+
+    def data_to_send(self) -> bytes:
+        """Bytes to write to the line now (empty when there are none)."""
+        out = bytes(self._out)
+        self._out.clear()
+        return out
+
+    def next_deadline(self) -> float | None:
+        """When :meth:`handle_timeout` must be called, or None if no timer runs."""
+        return self._deadline
+
+    def handle_timeout(self, now: float) -> list[LinkEvent]:
+        """Call when the deadline has passed; does nothing before it."""
+        self._now = now
+        if self._deadline is not None and now >= self._deadline:
+            self._deadline = None
+            self._fire(Input.TIMEOUT, b"")
+        return self._take_events()
+
+    def abort(self, now: float) -> list[LinkEvent]:
+        """End the current exchange at once by sending RST (Ctrl-C, a jog that must stop)."""
+        self._now = now
+        self._fire(Input.ABORT, b"")
+        return self._take_events()
+
+    @property
+    def idle(self) -> bool:
+        return self.state is self._idle
+
+    # -- table dispatch --------------------------------------------------------------------
+    def _dispatch_frame(self, event: FrameEvent) -> None:
+        if isinstance(event, Packet):
+            self._fire(Input.PACKET, event.data)
+        elif isinstance(event, Control):
+            self._fire(_CONTROL_INPUT[event.kind], b"")
+        elif isinstance(event, CorruptPacket):
+            self._fire(Input.CORRUPT, event.raw)
+
+    def _fire(self, what: Input, data: bytes) -> None:
+        name = TRANSITIONS.get((self.role, self.state, what))
+        if name is None:
+            error = LinkRuleError(self.role.value, self.state.value, what.value)
+            if what in _APP_INPUTS:
+                raise error
+            self._rule_broken(error)
+            return
+        handler: _Handler = getattr(type(self), name)
+        handler(self, data)
+
+    def _take_events(self) -> list[LinkEvent]:
+        events = self._events
+        self._events = []
+        return events
+
+    # -- shared actions ----------------------------------------------------------------------
+    def _emit(self, event: LinkEvent) -> None:
+        self._events.append(event)
+
+    def _send_packet(self, data: bytes, *, fresh: bool = True) -> None:
+        frame = encode_packet(data)
+        self._out += frame
+        self._last_sent = frame
+        if fresh:
+            self._naks = 0
+            self._resends = 0
+
+    def _send_control(self, byte: int) -> None:
+        self._out.append(byte)
+
+    def _arm(self, seconds: float) -> None:
+        self._deadline = self._now + seconds
+
+    def _finish(self, event: LinkEvent) -> None:
+        self._deadline = None
+        self.state = self._idle
+        self._emit(event)
+
+    def _fail(self, reason: FailReason, detail: str = "", *, send_rst: bool) -> None:
+        state = self.state
+        if send_rst:
+            self._send_control(RST)
+            self.decoder.reset()
+        self._deadline = None
+        self.state = self._idle
+        self._emit(ExchangeFailed(reason, state, detail))
+
+    def _rule_broken(self, error: LinkRuleError) -> None:
+        state = self.state
+        self._send_control(RST)
+        self.decoder.reset()
+        self._deadline = None
+        self.state = self._idle
+        self._emit(ExchangeFailed(FailReason.RULE, state, str(error), error))
+
+    def _ignore(self, data: bytes) -> None:
+        self._emit(Ignored("stray input", self.state))
+
+    def _nak_corrupt(self, data: bytes) -> None:
+        self._corrupt += 1
+        if self._corrupt > MAX_NAKS:
+            self._corrupt = 0
+            if self.state is self._idle:
+                self._send_control(RST)
+                self._emit(Ignored("corrupt packet: RST after 3 NAKs", self.state))
+                return
+            self._fail(FailReason.NAK_LIMIT, "4th corrupt packet in a row", send_rst=True)
+            return
+        self._send_control(NAK)
+        if self.state is not self._idle and self._deadline is not None:
+            self._arm(self.timeout)
+
+    def _resend(self, data: bytes) -> None:
+        self._naks += 1
+        if self._naks > MAX_NAKS:
+            self._fail(FailReason.NAK_LIMIT, f"{self._naks} NAKs for one packet", send_rst=True)
+            return
+        self._out += self._last_sent
+        self._arm(self.timeout)
+
+    def _reset_by_peer(self, data: bytes) -> None:
+        self.decoder.reset()
+        self._fail(FailReason.RESET, "RST received", send_rst=False)
+
+    def _abort(self, data: bytes) -> None:
+        self._fail(FailReason.ABORTED, "aborted by the application", send_rst=True)
+
+    def _good_packet(self) -> None:
+        self._corrupt = 0
+
+
+class HostLink(Link):
+    """The PC's end: sends requests, ACKs answers, runs FB uploads."""
+
+    role = Role.HOST
+    _idle = State.IDLE
+
+    def __init__(self, *, timeout: float = 2.0, resend_gap: float = 0.25):
+        super().__init__(timeout=timeout, resend_gap=resend_gap)
+        self.shape = Shape.SINGLE
+
+    # -- application calls -----------------------------------------------------------------
+    def send_request(self, data: bytes, shape: Shape, now: float) -> list[LinkEvent]:
+        """Start an exchange with a request packet's data (``FF G1 G2 params``)."""
+        self._now = now
+        self._pending_shape = shape
+        self._fire(Input.SEND_REQUEST, data)
+        return self._take_events()
+
+    def send_upload_line(self, body: bytes, now: float) -> list[LinkEvent]:
+        """FB: send one content packet (``0x30`` + body) after :class:`UploadReady`."""
+        self._now = now
+        self._fire(Input.SEND_LINE, body)
+        return self._take_events()
+
+    def send_upload_end(self, now: float) -> list[LinkEvent]:
+        """FB: send the closing 0x34 packet; a lone ACK completes the upload."""
+        self._now = now
+        self._fire(Input.SEND_END, b"")
+        return self._take_events()
+
+    # -- handlers --------------------------------------------------------------------------
+    def _h_send_request(self, data: bytes) -> None:
+        self.shape = self._pending_shape
+        self._corrupt = 0
+        self._last_received = b""
+        self._send_packet(data)
+        self.state = State.UPLOAD_WAIT_REPLY if self.shape is Shape.UPLOAD else State.WAIT_ANSWER
+        self._arm(self.timeout)
+
+    def _h_stray_packet(self, data: bytes) -> None:
+        # An intact packet outside an exchange: the controller resending an answer whose ACK
+        # was lost. ACK it so that it stops.
+        self._good_packet()
+        self._send_control(ACK)
+        self._emit(Ignored("packet outside an exchange (ACKed)", self.state))
+
+    def _is_resend(self, data: bytes) -> bool:
+        if data != self._last_received or self.state is State.WAIT_ANSWER:
+            return False
+        if self.state is State.WAIT_SECOND and len(split_answer(data).body) == 0:
+            # CE's two answers are both a bare flag: a copy is the second answer, not a resend.
+            return False
+        return self._now - self._last_ack_at >= self.resend_gap
+
+    def _ack(self, data: bytes) -> None:
+        self._send_control(ACK)
+        self._last_received = data
+        self._last_ack_at = self._now
+
+    def _h_answer(self, data: bytes) -> None:
+        self._good_packet()
+        if self._is_resend(data):
+            self._ack(data)
+            self._emit(Ignored("resent answer (ACKed again)", self.state))
+            self._arm(self.timeout)
+            return
+        try:
+            flag = split_answer(data).flag
+        except Exception:
+            flag = -1
+        if flag not in (FLAG_OK, FLAG_END) and flag not in _ERROR_FLAGS:
+            self._rule_broken(
+                LinkRuleError("host", self.state.value, "packet", f"unknown flag in {data!r}")
+            )
+            return
+        self._ack(data)
+        if flag in _ERROR_FLAGS:
+            self._emit(AnswerReceived(data, flag, final=True))
+            self._finish(ExchangeComplete())
+            return
+        shape = self.shape
+        if shape is Shape.MULTI:
+            if flag == FLAG_END:
+                self._emit(AnswerReceived(data, flag, final=True))
+                self._finish(ExchangeComplete())
+            else:
+                self._emit(AnswerReceived(data, flag, final=False))
+                self.state = State.WAIT_MORE
+                self._arm(self.timeout)
+            return
+        if flag == FLAG_END:
+            self._rule_broken(
+                LinkRuleError("host", self.state.value, "END packet", f"{shape.value} exchange")
+            )
+            return
+        if shape is Shape.TWO_PHASE and self.state is State.WAIT_ANSWER:
+            self._emit(AnswerReceived(data, flag, final=False))
+            self.state = State.WAIT_SECOND
+            self._arm(_expected_wait(data) + self.timeout)
+            return
+        self._emit(AnswerReceived(data, flag, final=True))
+        self._finish(ExchangeComplete())
+
+    def _h_timeout(self, data: bytes) -> None:
+        # Resync: RST returns the controller to its idle state too.
+        self._fail(FailReason.TIMEOUT, f"no answer within {self.timeout:g} s", send_rst=True)
+
+    def _h_upload_reply(self, data: bytes) -> None:
+        self._good_packet()
+        try:
+            flag = split_answer(data).flag
+        except Exception:
+            flag = -1
+        if flag == FLAG_OK:
+            self.state = State.UPLOAD_READY
+            self._deadline = None
+            self._emit(UploadReady(data))
+        elif flag in _ERROR_FLAGS:
+            self._emit(AnswerReceived(data, flag, final=True))
+            self._finish(ExchangeComplete())
+        else:
+            self._rule_broken(
+                LinkRuleError("host", self.state.value, "packet", f"upload reply {data!r}")
+            )
+
+    def _h_send_line(self, body: bytes) -> None:
+        self._send_packet(bytes((FLAG_OK,)) + body)
+        self.state = State.UPLOAD_WAIT_REPLY
+        self._arm(self.timeout)
+
+    def _h_send_end(self, data: bytes) -> None:
+        self._send_packet(bytes((FLAG_END,)))
+        self.state = State.UPLOAD_WAIT_ACK
+        self._arm(self.timeout)
+
+    def _h_upload_done(self, data: bytes) -> None:
+        self._finish(ExchangeComplete())
+
+    def _h_upload_final_reply(self, data: bytes) -> None:
+        # The controller could not store the file: an error answer in place of the ACK.
+        self._good_packet()
+        try:
+            flag = split_answer(data).flag
+        except Exception:
+            flag = -1
+        if flag in _ERROR_FLAGS:
+            self._emit(AnswerReceived(data, flag, final=True))
+            self._finish(ExchangeComplete())
+        else:
+            self._rule_broken(
+                LinkRuleError("host", self.state.value, "packet", f"{data!r} in place of ACK")
+            )
+
+
+class ControllerLink(Link):
+    """The controller's end: receives requests, sends answers, takes FB uploads."""
+
+    role = Role.CONTROLLER
+    _idle = State.LISTEN
+
+    def __init__(self, *, timeout: float = 2.0, max_resends: int = MAX_RESENDS):
+        super().__init__(timeout=timeout)
+        self.max_resends = max_resends
+        self._queue: list[bytes] = []
+        self._after = After.DONE
+
+    # -- application calls -----------------------------------------------------------------
+    def send_answer(self, packets: Sequence[bytes], after: After, now: float) -> list[LinkEvent]:
+        """Answer the current request (or upload packet) with one or more packets' data."""
+        if not packets:
+            raise ValueError("send_answer needs at least one packet")
+        self._now = now
+        self._pending = (list(packets), after)
+        self._fire(Input.SEND_ANSWER, b"")
+        return self._take_events()
+
+    def accept_upload(self, now: float) -> list[LinkEvent]:
+        """FB: the closing 0x34 was stored; answer with a lone ACK."""
+        self._now = now
+        self._fire(Input.ACCEPT_UPLOAD, b"")
+        return self._take_events()
+
+    # -- handlers --------------------------------------------------------------------------
+    def _c_request(self, data: bytes) -> None:
+        self._good_packet()
+        self.state = State.HANDLING
+        self._emit(RequestReceived(data))
+
+    def _c_send_answer(self, data: bytes) -> None:
+        packets, after = self._pending
+        self._queue = packets[1:]
+        self._after = after
+        self._send_packet(packets[0])
+        self._after_send()
+
+    def _after_send(self) -> None:
+        if self._queue or self._after in (After.DONE, After.SECOND_PHASE):
+            self.state = State.WAIT_ACK
+            self._arm(self.timeout)
+        elif self._after is After.UPLOAD:
+            self.state = State.UPLOAD_WAIT_PACKET
+            self._arm(self.timeout)
+        else:  # FINAL
+            self._finish(ExchangeComplete())
+
+    def _c_acked(self, data: bytes) -> None:
+        if self._queue:
+            self._send_packet(self._queue.pop(0))
+            self._after_send()
+        elif self._after is After.SECOND_PHASE:
+            self.state = State.WORKING
+            self._after = After.DONE
+            self._deadline = None
+        else:
+            self._finish(ExchangeComplete())
+
+    def _c_ack_timeout(self, data: bytes) -> None:
+        if self._resends < self.max_resends:
+            self._resends += 1
+            self._out += self._last_sent
+            self._arm(self.timeout)
+        else:
+            self._fail(FailReason.TIMEOUT, "no ACK after resends; exchange dropped", send_rst=False)
+
+    def _c_superseded(self, data: bytes) -> None:
+        # The host moved on: its ACK was lost (or it gave up and its RST was lost). A packet
+        # that is a request starts a new exchange; the old one ends.
+        if data[:1] != b"\xff":
+            self._rule_broken(LinkRuleError("controller", self.state.value, "non-request packet"))
+            return
+        if self.state is State.WAIT_ACK and not self._queue and self._after is After.DONE:
+            self._finish(ExchangeComplete())
+        else:
+            self._fail(FailReason.SUPERSEDED, "a new request arrived", send_rst=False)
+        self._c_request(data)
+
+    def _c_upload_packet(self, data: bytes) -> None:
+        self._good_packet()
+        if data[:1] == b"\xff":
+            self._fail(FailReason.SUPERSEDED, "a new request arrived mid-upload", send_rst=False)
+            self._c_request(data)
+            return
+        if data[:1] == bytes((FLAG_OK,)):
+            self.state = State.UPLOAD_HANDLING
+            self._deadline = None
+            self._emit(UploadPacketReceived(data[1:], end=False))
+        elif data == bytes((FLAG_END,)):
+            self.state = State.UPLOAD_HANDLING
+            self._deadline = None
+            self._emit(UploadPacketReceived(b"", end=True))
+        else:
+            self._rule_broken(
+                LinkRuleError("controller", self.state.value, "packet", f"{data!r} in upload")
+            )
+
+    def _c_upload_timeout(self, data: bytes) -> None:
+        self._fail(FailReason.TIMEOUT, "upload stalled; exchange dropped", send_rst=False)
+
+    def _c_accept_upload(self, data: bytes) -> None:
+        self._send_control(ACK)
+        self._finish(ExchangeComplete())
+
+
+def _expected_wait(data: bytes) -> float:
+    """Seconds of a two-phase first answer's expected wait (DB/DC: two digits; CE: none)."""
+    body = split_answer(data).body
+    text = body.decode("ascii", "replace").strip()
+    return float(text) if text.isdigit() else 0.0
