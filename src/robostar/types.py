@@ -20,10 +20,12 @@ __all__ = [
     "FileRecord",
     "GlobalKind",
     "IOState",
+    "JobFile",
     "JobMode",
     "JogDirection",
     "MotionType",
     "Point",
+    "PointFile",
     "Position",
     "PositionKind",
     "RobotType",
@@ -243,3 +245,28 @@ class IOState:
 
     def __str__(self) -> str:
         return "".join("1" if c else "0" for c in self.contacts)
+
+
+@dataclass(frozen=True, slots=True)
+class JobFile:
+    """A JOB file's content as FA downloads it: one string per step, ``MAIN`` to ``EOP``."""
+
+    lines: tuple[str, ...]
+
+    @property
+    def max_step(self) -> int:
+        return len(self.lines)
+
+
+@dataclass(frozen=True)
+class PointFile:
+    """A PNT file's content as FA downloads it: local point number -> point.
+
+    ``max_point`` is the highest point number the file holds (FA's first packet).
+    """
+
+    points: dict[int, Point]
+
+    @property
+    def max_point(self) -> int:
+        return max(self.points, default=0)

@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-from robostar.commands import status
+from robostar.commands import control, files, io, job, motion, status, system, variables
 from robostar.commands.base import Command
 from robostar.errors import FieldError
 
 __all__ = ["COMMANDS", "all_commands", "command_classes", "decode_request"]
 
-_MODULES = (status,)
+_MODULES = (status, motion, control, job, files, io, variables, system)
 
 
 def _collect() -> dict[str, tuple[type[Command[object]], ...]]:

@@ -1,0 +1,3 @@
+"""Commands of the control group (being written)."""
+
+__all__: list[str] = []

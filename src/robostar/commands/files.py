@@ -1,0 +1,3 @@
+"""Commands of the files group (being written)."""
+
+__all__: list[str] = []

@@ -1,0 +1,3 @@
+"""Commands of the job group (being written)."""
+
+__all__: list[str] = []

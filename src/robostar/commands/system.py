@@ -1,0 +1,3 @@
+"""Commands of the system group (being written)."""
+
+__all__: list[str] = []

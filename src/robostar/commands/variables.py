@@ -1,0 +1,3 @@
+"""Commands of the variables group (being written)."""
+
+__all__: list[str] = []
