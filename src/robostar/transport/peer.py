@@ -1,0 +1,25 @@
+"""The byte-peer interface: an in-process far end (simulator, fault injector) of a line.
+
+A peer is driven like the sans-IO core: the transport hands it the bytes the host wrote and the
+current time, and asks it for bytes to deliver. It never blocks and owns no thread.
+"""
+
+from __future__ import annotations
+
+from typing import Protocol, runtime_checkable
+
+__all__ = ["BytePeer"]
+
+
+@runtime_checkable
+class BytePeer(Protocol):
+    """The far end of an in-process line. ``now`` is monotonic seconds (``time.monotonic()``)."""
+
+    def receive_data(self, data: bytes, now: float) -> None:
+        """Bytes the host wrote."""
+
+    def data_to_send(self, now: float) -> bytes:
+        """Advance to ``now`` and return the bytes the peer has for the host (may be empty)."""
+
+    def next_deadline(self) -> float | None:
+        """When :meth:`data_to_send` should be called again even if the host writes nothing."""
