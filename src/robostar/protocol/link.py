@@ -25,7 +25,7 @@ from robostar.protocol.frame import (
     RST,
     Control,
     ControlKind,
-    CorruptPacket,
+    CorruptReason,
     FrameDecoder,
     FrameEvent,
     Packet,
@@ -244,6 +244,7 @@ TRANSITIONS: dict[tuple[Role, State, Input], str] = {
     (_H, State.UPLOAD_READY, Input.SEND_END): "_h_send_end",
     (_H, State.UPLOAD_READY, Input.ACK): "_ignore",
     (_H, State.UPLOAD_READY, Input.NAK): "_ignore",
+    (_H, State.UPLOAD_READY, Input.CORRUPT): "_ignore",
     (_H, State.UPLOAD_READY, Input.RST): "_reset_by_peer",
     (_H, State.UPLOAD_READY, Input.ABORT): "_abort",
     (_H, State.UPLOAD_WAIT_ACK, Input.ACK): "_h_upload_done",
@@ -373,7 +374,12 @@ class Link:
             self._fire(Input.PACKET, event.data)
         elif isinstance(event, Control):
             self._fire(_CONTROL_INPUT[event.kind], b"")
-        elif isinstance(event, CorruptPacket):
+        elif event.reason is CorruptReason.TRUNCATED:
+            # A frame cut short by a new STX needs no NAK: the next frame is already arriving,
+            # and a NAK here would make the sender resend a packet that may have been taken
+            # (a duplicated STX byte would then run a command twice).
+            self._emit(Ignored("frame cut short by a new STX", self.state))
+        else:
             self._fire(Input.CORRUPT, event.raw)
 
     def _fire(self, what: Input, data: bytes) -> None:
