@@ -1,3 +1,280 @@
-"""Commands of the motion group (being written)."""
+"""Group B, motion commands: homing, moves to points or coordinates, and jogging.
 
-__all__: list[str] = []
+BA homes, BB moves to points of a PNT file, BC to given coordinates, BD by a delta; BE starts a
+jog, BF keeps it going, BG stops it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Self
+
+from robostar.commands.base import NoData
+from robostar.errors import FieldError
+from robostar.protocol.fields import (
+    COORD_WIDTH,
+    FLAG_REJECTED,
+    FLAG_UNSUPPORTED,
+    FileName,
+    Reader,
+    check_range,
+    encode_channel,
+    encode_coord,
+    encode_int,
+)
+from robostar.types import CoordSystem, JogDirection, MotionType
+
+__all__ = [
+    "Home",
+    "JogContinue",
+    "JogStart",
+    "JogStop",
+    "Move",
+    "MoveBy",
+    "MoveToPoint",
+]
+
+POINT_WIDTH = 4
+MAX_LOCAL_POINT = 9999
+MAX_AXES = 6
+
+
+def _digit(command: str, field: str, value: int, lo: int, hi: int, flag: int) -> bytes:
+    """A one-byte ASCII digit code; ``flag`` is what the manual says a controller answers."""
+    return b"%d" % check_range(command, field, value, lo, hi, flag=flag)
+
+
+def points_for(motion: MotionType) -> int:
+    """How many points BC carries: a target (JMOV, LMOV), via + target (AMOV), two vias (CMOV)."""
+    return 2 if motion in (MotionType.ARC, MotionType.CIRCLE) else 1
+
+
+def _encode_axes(command: str, field: str, values: Sequence[float]) -> bytes:
+    if isinstance(values, str | bytes) or not isinstance(values, Sequence):
+        raise FieldError(command, field, "must be a sequence of axis values")
+    check_range(command, f"{field} axis count", len(values), 1, MAX_AXES)
+    return b"".join(
+        encode_coord(command, f"{field} axis {i + 1}", value) for i, value in enumerate(values)
+    )
+
+
+def _read_points(reader: Reader, names: Sequence[str], field: str) -> tuple[tuple[float, ...], ...]:
+    """One point per name, of equal axis count, 10 bytes per axis, from the rest of the packet."""
+    count = len(names)
+    size = reader.remaining
+    axes, extra = divmod(size, count * COORD_WIDTH)
+    if extra or not 1 <= axes <= MAX_AXES:
+        raise FieldError(
+            reader.command,
+            field,
+            f"{size} bytes is not {count} point(s) of 1-{MAX_AXES} axes x {COORD_WIDTH} bytes",
+        )
+    return tuple(tuple(reader.coord(f"{name} axis {a + 1}") for a in range(axes)) for name in names)
+
+
+@dataclass(frozen=True, slots=True)
+class Home(NoData):
+    """BA: return a channel's robot to its origin (homing)."""
+
+    CODE = "BA"
+    CHANGES_STATE = True
+    channel: int
+
+    def encode_params(self) -> bytes:
+        return encode_channel(self.CODE, self.channel)
+
+    @classmethod
+    def decode_params(cls, reader: Reader) -> Self:
+        return cls(reader.channel())
+
+
+@dataclass(frozen=True, slots=True, init=False)
+class MoveToPoint(NoData):
+    """BB: move to a point of a PNT file, or along an arc or circle through two of its points.
+
+    JOINT/LINEAR: ``point`` is the target and ``point2`` is 0. ARC: via ``point`` to target
+    ``point2``. CIRCLE: through the via points ``point`` and ``point2``. ``file`` may be given as
+    a string (``"P1.PNT"``); it is kept as a FileName.
+    """
+
+    CODE = "BB"
+    CHANGES_STATE = True
+    channel: int
+    file: FileName
+    motion: MotionType
+    point: int
+    point2: int
+
+    def __init__(
+        self,
+        channel: int,
+        file: FileName | str,
+        motion: MotionType,
+        point: int,
+        point2: int = 0,
+    ) -> None:
+        object.__setattr__(self, "channel", channel)
+        object.__setattr__(self, "file", FileName.parse(file) if isinstance(file, str) else file)
+        object.__setattr__(self, "motion", motion)
+        object.__setattr__(self, "point", point)
+        object.__setattr__(self, "point2", point2)
+
+    @classmethod
+    def _check_point2(cls, motion: int, point2: int) -> None:
+        # The manual's example sends "0000" as Point Num 2 for a one-point move.
+        if motion in (MotionType.JOINT, MotionType.LINEAR) and point2 != 0:
+            raise FieldError(cls.CODE, "point2", f"must be 0 for a {MotionType(motion).name} move")
+
+    def encode_params(self) -> bytes:
+        channel = encode_channel(self.CODE, self.channel)
+        if not isinstance(self.file, FileName):
+            raise FieldError(self.CODE, "file", "must be a FileName or a str")
+        name = self.file.check(self.CODE, "file", kind="PNT", case_flag=FLAG_REJECTED)
+        motion = _digit(self.CODE, "motion", self.motion, 0, 3, FLAG_REJECTED)
+        point = encode_int(self.CODE, "point", self.point, POINT_WIDTH, lo=0, hi=MAX_LOCAL_POINT)
+        point2 = encode_int(self.CODE, "point2", self.point2, POINT_WIDTH, lo=0, hi=MAX_LOCAL_POINT)
+        self._check_point2(self.motion, self.point2)
+        return channel + name.encode(self.CODE, "file") + motion + point + point2
+
+    @classmethod
+    def decode_params(cls, reader: Reader) -> Self:
+        channel = reader.channel()
+        name = reader.name(12, "file").check(cls.CODE, "file", kind="PNT", case_flag=FLAG_REJECTED)
+        motion = reader.enum("motion", MotionType)
+        point = reader.number(POINT_WIDTH, "point", lo=0, hi=MAX_LOCAL_POINT)
+        point2 = reader.number(POINT_WIDTH, "point2", lo=0, hi=MAX_LOCAL_POINT)
+        cls._check_point2(motion, point2)
+        return cls(channel, name, motion, point, point2)
+
+
+@dataclass(frozen=True, slots=True)
+class Move(NoData):
+    """BC: move to coordinates, in joint angles or XY.
+
+    ``points`` holds one target (JOINT, LINEAR), via + target (ARC) or two via points (CIRCLE),
+    each with the same number of axes (1-6).
+    """
+
+    CODE = "BC"
+    CHANGES_STATE = True
+    channel: int
+    motion: MotionType
+    coords: CoordSystem
+    points: tuple[tuple[float, ...], ...]
+
+    def encode_params(self) -> bytes:
+        channel = encode_channel(self.CODE, self.channel)
+        motion = _digit(self.CODE, "motion", self.motion, 0, 3, FLAG_UNSUPPORTED)
+        coords = _digit(self.CODE, "coords", self.coords, 0, 1, FLAG_REJECTED)
+        points = self.points
+        if isinstance(points, str | bytes) or not isinstance(points, Sequence):
+            raise FieldError(self.CODE, "points", "must be a sequence of points")
+        need = points_for(MotionType(self.motion))
+        if len(points) != need:
+            raise FieldError(
+                self.CODE,
+                "points",
+                f"a {MotionType(self.motion).name} move takes {need} point(s), not {len(points)}",
+            )
+        data = [_encode_axes(self.CODE, f"point {i + 1}", p) for i, p in enumerate(points)]
+        if len({len(d) for d in data}) != 1:
+            raise FieldError(self.CODE, "points", "every point needs the same number of axes")
+        return channel + motion + coords + b"".join(data)
+
+    @classmethod
+    def decode_params(cls, reader: Reader) -> Self:
+        channel = reader.channel()
+        motion = reader.enum("motion", MotionType, flag=FLAG_UNSUPPORTED)
+        coords = reader.enum("coords", CoordSystem)
+        names = [f"point {i + 1}" for i in range(points_for(motion))]
+        return cls(channel, motion, coords, _read_points(reader, names, "points"))
+
+
+@dataclass(frozen=True, slots=True)
+class MoveBy(NoData):
+    """BD: move by a delta from the current position (JOINT or LINEAR), per axis (1-6)."""
+
+    CODE = "BD"
+    CHANGES_STATE = True
+    channel: int
+    motion: MotionType
+    coords: CoordSystem
+    delta: tuple[float, ...]
+
+    def encode_params(self) -> bytes:
+        return (
+            encode_channel(self.CODE, self.channel)
+            + _digit(self.CODE, "motion", self.motion, 0, 1, FLAG_UNSUPPORTED)
+            + _digit(self.CODE, "coords", self.coords, 0, 1, FLAG_REJECTED)
+            + _encode_axes(self.CODE, "delta", self.delta)
+        )
+
+    @classmethod
+    def decode_params(cls, reader: Reader) -> Self:
+        channel = reader.channel()
+        motion = MotionType(reader.code("motion", 0, 1, flag=FLAG_UNSUPPORTED))
+        coords = reader.enum("coords", CoordSystem)
+        (delta,) = _read_points(reader, ["delta"], "delta")
+        return cls(channel, motion, coords, delta)
+
+
+@dataclass(frozen=True, slots=True)
+class JogStart(NoData):
+    """BE: start jogging one axis (1-6) in a direction; keep it going with BF within 500 ms."""
+
+    CODE = "BE"
+    CHANGES_STATE = True
+    channel: int
+    axis: int
+    direction: JogDirection
+    motion: MotionType
+
+    def encode_params(self) -> bytes:
+        return (
+            encode_channel(self.CODE, self.channel)
+            # The wire numbers axes from '0'; the pendant from 1.
+            + b"%d" % (check_range(self.CODE, "axis", self.axis, 1, MAX_AXES) - 1)
+            + _digit(self.CODE, "direction", self.direction, 0, 1, FLAG_REJECTED)
+            + _digit(self.CODE, "motion", self.motion, 0, 1, FLAG_REJECTED)
+        )
+
+    @classmethod
+    def decode_params(cls, reader: Reader) -> Self:
+        channel = reader.channel()
+        axis = reader.code("axis", 0, MAX_AXES - 1) + 1
+        direction = reader.enum("direction", JogDirection)
+        motion = MotionType(reader.code("motion", 0, 1))
+        return cls(channel, axis, direction, motion)
+
+
+@dataclass(frozen=True, slots=True)
+class JogContinue(NoData):
+    """BF: keep a jog going (must come within 500 ms of the last BE/BF, or the robot stops)."""
+
+    CODE = "BF"
+    CHANGES_STATE = True
+    channel: int
+
+    def encode_params(self) -> bytes:
+        return encode_channel(self.CODE, self.channel)
+
+    @classmethod
+    def decode_params(cls, reader: Reader) -> Self:
+        return cls(reader.channel())
+
+
+@dataclass(frozen=True, slots=True)
+class JogStop(NoData):
+    """BG: stop a jog (``STX FF 'B' 'G' channel ETX LRC``; the manual's table is missing)."""
+
+    CODE = "BG"
+    CHANGES_STATE = True
+    channel: int
+
+    def encode_params(self) -> bytes:
+        return encode_channel(self.CODE, self.channel)
+
+    @classmethod
+    def decode_params(cls, reader: Reader) -> Self:
+        return cls(reader.channel())
