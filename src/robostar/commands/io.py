@@ -1,3 +1,128 @@
-"""Commands of the io group (being written)."""
+"""Group G, I/O: GA (read inputs), GB (read outputs), GC (set an output), GD (I/O boards).
 
-__all__: list[str] = []
+Ports are 0-4 and contacts 0-15, both sent as two ASCII digits (``"01"``, ``"12"``). A port sent
+as ``'0'`` and a raw byte, as one public client does, is answered 0x31.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Self
+
+from robostar.commands.base import Command, NoData
+from robostar.errors import FieldError, MalformedAnswerError
+from robostar.protocol.fields import Reader, decode_io_nibbles, encode_int, encode_io_nibbles
+from robostar.types import IOState
+
+__all__ = ["ReadIOBoards", "ReadInputs", "ReadOutputs", "SetOutput"]
+
+MAX_PORT = 4
+CONTACTS = 16
+MAX_BOARDS = 2
+
+
+def _encode_port(command: str, port: int) -> bytes:
+    return encode_int(command, "port", port, 2, lo=0, hi=MAX_PORT)
+
+
+@dataclass(frozen=True, slots=True)
+class _ReadPort(Command[IOState]):
+    """A read of one port's 16 contacts: the count ``"16"`` then four ``0x30 | nibble`` bytes."""
+
+    port: int
+
+    def encode_params(self) -> bytes:
+        return _encode_port(self.CODE, self.port)
+
+    @classmethod
+    def decode_params(cls, reader: Reader) -> Self:
+        return cls(reader.number(2, "port", lo=0, hi=MAX_PORT))
+
+    def decode_answer(self, packets: Sequence[bytes]) -> IOState:
+        r = self.single(packets)
+        count = r.number(2, "contact count")
+        if count != CONTACTS:
+            raise MalformedAnswerError(self.CODE, f"{count} contacts where 16 were expected")
+        contacts = decode_io_nibbles(self.CODE, r.take(4, "contact states"))
+        r.end()
+        return IOState(self.port, contacts)
+
+    def encode_answer(self, result: IOState) -> list[bytes]:
+        if result.port != self.port:
+            raise FieldError(self.CODE, "port", f"state of port {result.port}, asked {self.port}")
+        if len(result.contacts) != CONTACTS:
+            raise FieldError(self.CODE, "contacts", f"need 16, got {len(result.contacts)}")
+        return [self.ok(b"%02d" % CONTACTS + encode_io_nibbles(result.contacts))]
+
+
+@dataclass(frozen=True, slots=True)
+class ReadInputs(_ReadPort):
+    """GA: read the 16 input contacts of a port (0-4)."""
+
+    CODE = "GA"
+
+
+@dataclass(frozen=True, slots=True)
+class ReadOutputs(_ReadPort):
+    """GB: read the 16 output contacts of a port (0-4)."""
+
+    CODE = "GB"
+
+
+@dataclass(frozen=True, slots=True)
+class SetOutput(NoData):
+    """GC: switch one output contact (0-15) of a port (0-4) on or off."""
+
+    CODE = "GC"
+    CHANGES_STATE = True
+    port: int
+    contact: int
+    on: bool
+
+    def encode_params(self) -> bytes:
+        if not isinstance(self.on, bool):
+            raise FieldError(self.CODE, "on", f"must be a bool, not {type(self.on).__name__}")
+        return (
+            _encode_port(self.CODE, self.port)
+            + encode_int(self.CODE, "contact", self.contact, 2, lo=0, hi=CONTACTS - 1)
+            + (b"1" if self.on else b"0")
+        )
+
+    @classmethod
+    def decode_params(cls, reader: Reader) -> Self:
+        port = reader.number(2, "port", lo=0, hi=MAX_PORT)
+        contact = reader.number(2, "contact", lo=0, hi=CONTACTS - 1)
+        return cls(port, contact, bool(reader.code("on", 0, 1)))
+
+
+@dataclass(frozen=True, slots=True)
+class ReadIOBoards(Command[tuple[int, int]]):
+    """GD: how many input and output I/O boards the controller is set up with (0-2 each)."""
+
+    CODE = "GD"
+
+    def encode_params(self) -> bytes:
+        return b""
+
+    @classmethod
+    def decode_params(cls, reader: Reader) -> Self:
+        return cls()
+
+    def decode_answer(self, packets: Sequence[bytes]) -> tuple[int, int]:
+        r = self.single(packets)
+        inputs = r.number(2, "input boards", lo=0, hi=MAX_BOARDS)
+        outputs = r.number(2, "output boards", lo=0, hi=MAX_BOARDS)
+        r.end()
+        return inputs, outputs
+
+    def encode_answer(self, result: tuple[int, int]) -> list[bytes]:
+        if len(result) != 2:
+            raise FieldError(self.CODE, "boards", "give (input boards, output boards)")
+        inputs, outputs = result
+        return [
+            self.ok(
+                encode_int(self.CODE, "input boards", inputs, 2, lo=0, hi=MAX_BOARDS)
+                + encode_int(self.CODE, "output boards", outputs, 2, lo=0, hi=MAX_BOARDS)
+            )
+        ]

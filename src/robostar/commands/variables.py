@@ -1,3 +1,296 @@
-"""Commands of the variables group (being written)."""
+"""Global variables: GR (read) and GW (write), each for a point, an integer or a float.
 
-__all__: list[str] = []
+The three variants share their code; the request's first byte (Type: '0' point, '1' integer,
+'2' float) picks the class, through :meth:`Command.matches`. Global points are 0-1023 (index
+5 bytes, ``"   45"``), integers and floats 0-499 (index 4 bytes, ``"  45"``). Values are sent
+right-aligned and space-padded; receivers accept space or zero padding.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Self
+
+from robostar.commands.base import Command, NoData
+from robostar.errors import FieldError, MalformedAnswerError
+from robostar.protocol.fields import (
+    Reader,
+    check_range,
+    encode_channel,
+    encode_coord,
+    encode_int,
+)
+from robostar.types import ArmForm, CoordSystem, GlobalKind, Point
+
+__all__ = [
+    "ReadGlobalFloat",
+    "ReadGlobalInt",
+    "ReadGlobalPoint",
+    "WriteGlobalFloat",
+    "WriteGlobalInt",
+    "WriteGlobalPoint",
+]
+
+MAX_POINT_INDEX = 1023
+MAX_VALUE_INDEX = 499
+AXES = 6
+INT_WIDTH = 6
+INT_MIN = -99999
+INT_MAX = 999999
+READ_FLOAT_WIDTH = 9
+WRITE_FLOAT_WIDTH = 10
+
+
+def _type_byte(kind: GlobalKind) -> bytes:
+    return b"%d" % kind
+
+
+def _read_type(reader: Reader, kind: GlobalKind) -> None:
+    reader.code("Type", int(kind), int(kind))
+
+
+# -- points ----------------------------------------------------------------------------------
+def _point_params(command: str, channel: int, coords: int, axis: int, index: int) -> bytes:
+    """Channel, coordinate system, axis and index: the fields GR and GW points share."""
+    return (
+        _type_byte(GlobalKind.POINT)
+        + encode_channel(command, channel)
+        + b"%d" % check_range(command, "coords", coords, 0, 1)
+        + b"%d" % check_range(command, "axis", axis, 0, AXES)
+        + encode_int(command, "index", index, 5, lo=0, hi=MAX_POINT_INDEX, pad=" ")
+    )
+
+
+def _read_point_params(reader: Reader) -> tuple[int, CoordSystem, int, int]:
+    _read_type(reader, GlobalKind.POINT)
+    channel = reader.channel()
+    coords = reader.enum("coords", CoordSystem)
+    axis = reader.code("axis", 0, AXES)
+    index = reader.number(5, "index", lo=0, hi=MAX_POINT_INDEX)
+    return channel, coords, axis, index
+
+
+def _encode_point(command: str, point: Point, axis: int, *, arm: bool) -> bytes:
+    """Point data: all axes (6 x 10 bytes, missing axes as 0.0) + USED + ARM, or the one axis
+    + USED (+ ARM when ``arm``, as GW sends it)."""
+    if not isinstance(point, Point):
+        raise FieldError(command, "point", f"must be a Point, not {type(point).__name__}")
+    if axis == 0:
+        check_range(command, "point axis count", len(point.axes), 1, AXES)
+        values = point.axes + (0.0,) * (AXES - len(point.axes))
+    elif len(point.axes) != 1:
+        raise FieldError(
+            command, "point", f"axis {axis} alone takes one value, not {len(point.axes)}"
+        )
+    else:
+        values = point.axes
+    data = b"".join(encode_coord(command, f"point axis {i}", v) for i, v in enumerate(values, 1))
+    data += b"1" if point.used else b"0"
+    if axis == 0 or arm:
+        data += b"%d" % check_range(command, "point arm", point.arm, 0, 2)
+    return data
+
+
+def _decode_point(reader: Reader, axis: int, *, arm: bool) -> Point:
+    """The inverse of :func:`_encode_point`; a one-axis point read without ARM has arm NONE."""
+    if axis == 0:
+        axes = tuple(reader.coord(f"axis {i}") for i in range(1, AXES + 1))
+    else:
+        axes = (reader.coord(f"axis {axis}"),)
+    used = bool(reader.code("USED", 0, 1))
+    form = reader.enum("ARM", ArmForm) if axis == 0 or arm else ArmForm.NONE
+    return Point(axes, form, used)
+
+
+@dataclass(frozen=True, slots=True)
+class ReadGlobalPoint(Command[Point]):
+    """GR (Type '0'): read global point ``index`` (0-1023) of a channel, all axes or one.
+
+    The answer is ``FLAG '0'`` then, for all axes (``axis`` 0), 6 x 10 bytes + USED + ARM
+    (62 bytes); for one axis (1-6), 10 bytes + USED (11), read as a one-value Point with arm
+    NONE.
+    """
+
+    CODE = "GR"
+    channel: int
+    index: int
+    coords: CoordSystem = CoordSystem.ANGLE
+    axis: int = 0
+
+    @classmethod
+    def matches(cls, params: bytes) -> bool:
+        return params[:1] == _type_byte(GlobalKind.POINT)
+
+    def encode_params(self) -> bytes:
+        return _point_params(self.CODE, self.channel, self.coords, self.axis, self.index)
+
+    @classmethod
+    def decode_params(cls, reader: Reader) -> Self:
+        channel, coords, axis, index = _read_point_params(reader)
+        return cls(channel, index, coords, axis)
+
+    def decode_answer(self, packets: Sequence[bytes]) -> Point:
+        r = self.single(packets)
+        if r.take(1, "Type") != _type_byte(GlobalKind.POINT):
+            raise MalformedAnswerError(self.CODE, "point data does not start with '0'")
+        point = _decode_point(r, self.axis, arm=False)
+        r.end()
+        return point
+
+    def encode_answer(self, result: Point) -> list[bytes]:
+        data = _encode_point(self.CODE, result, self.axis, arm=False)
+        return [self.ok(_type_byte(GlobalKind.POINT) + data)]
+
+
+@dataclass(frozen=True, slots=True)
+class WriteGlobalPoint(NoData):
+    """GW (Type '0'): write global point ``index`` (0-1023) of a channel, all axes or one.
+
+    All axes (``axis`` 0): 6 x 10 bytes + USED + ARM, axes the point lacks sent as 0.0 (so it
+    reads back with six values). One axis (1-6): ``point`` holds that one value; 10 bytes +
+    USED + ARM. ARM ``NONE`` asks the controller to keep the robot's current posture.
+    """
+
+    CODE = "GW"
+    CHANGES_STATE = True
+    channel: int
+    index: int
+    point: Point
+    coords: CoordSystem = CoordSystem.ANGLE
+    axis: int = 0
+
+    @classmethod
+    def matches(cls, params: bytes) -> bool:
+        return params[:1] == _type_byte(GlobalKind.POINT)
+
+    def encode_params(self) -> bytes:
+        head = _point_params(self.CODE, self.channel, self.coords, self.axis, self.index)
+        return head + _encode_point(self.CODE, self.point, self.axis, arm=True)
+
+    @classmethod
+    def decode_params(cls, reader: Reader) -> Self:
+        channel, coords, axis, index = _read_point_params(reader)
+        return cls(channel, index, _decode_point(reader, axis, arm=True), coords, axis)
+
+
+# -- integers and floats ---------------------------------------------------------------------
+def _value_index(command: str, kind: GlobalKind, index: int) -> bytes:
+    return _type_byte(kind) + encode_int(
+        command, "index", index, 4, lo=0, hi=MAX_VALUE_INDEX, pad=" "
+    )
+
+
+def _read_value_index(reader: Reader, kind: GlobalKind) -> int:
+    _read_type(reader, kind)
+    return reader.number(4, "index", lo=0, hi=MAX_VALUE_INDEX)
+
+
+def _encode_int_value(command: str, value: int) -> bytes:
+    return encode_int(command, "value", value, INT_WIDTH, lo=INT_MIN, hi=INT_MAX, pad=" ")
+
+
+@dataclass(frozen=True, slots=True)
+class ReadGlobalInt(Command[int]):
+    """GR (Type '1'): read global integer ``index`` (0-499); the answer is 6 bytes."""
+
+    CODE = "GR"
+    index: int
+
+    @classmethod
+    def matches(cls, params: bytes) -> bool:
+        return params[:1] == _type_byte(GlobalKind.INTEGER)
+
+    def encode_params(self) -> bytes:
+        return _value_index(self.CODE, GlobalKind.INTEGER, self.index)
+
+    @classmethod
+    def decode_params(cls, reader: Reader) -> Self:
+        return cls(_read_value_index(reader, GlobalKind.INTEGER))
+
+    def decode_answer(self, packets: Sequence[bytes]) -> int:
+        r = self.single(packets)
+        value = r.number(INT_WIDTH, "value")
+        r.end()
+        return value
+
+    def encode_answer(self, result: int) -> list[bytes]:
+        return [self.ok(_encode_int_value(self.CODE, result))]
+
+
+@dataclass(frozen=True, slots=True)
+class WriteGlobalInt(NoData):
+    """GW (Type '1'): write global integer ``index`` (0-499), 6 bytes (-99999..999999)."""
+
+    CODE = "GW"
+    CHANGES_STATE = True
+    index: int
+    value: int
+
+    @classmethod
+    def matches(cls, params: bytes) -> bool:
+        return params[:1] == _type_byte(GlobalKind.INTEGER)
+
+    def encode_params(self) -> bytes:
+        return _value_index(self.CODE, GlobalKind.INTEGER, self.index) + _encode_int_value(
+            self.CODE, self.value
+        )
+
+    @classmethod
+    def decode_params(cls, reader: Reader) -> Self:
+        index = _read_value_index(reader, GlobalKind.INTEGER)
+        return cls(index, reader.number(INT_WIDTH, "value"))
+
+
+@dataclass(frozen=True, slots=True)
+class ReadGlobalFloat(Command[float]):
+    """GR (Type '2'): read global float ``index`` (0-499); the answer is 9 bytes, 3 decimals
+    (``"12345.123"``)."""
+
+    CODE = "GR"
+    index: int
+
+    @classmethod
+    def matches(cls, params: bytes) -> bool:
+        return params[:1] == _type_byte(GlobalKind.FLOAT)
+
+    def encode_params(self) -> bytes:
+        return _value_index(self.CODE, GlobalKind.FLOAT, self.index)
+
+    @classmethod
+    def decode_params(cls, reader: Reader) -> Self:
+        return cls(_read_value_index(reader, GlobalKind.FLOAT))
+
+    def decode_answer(self, packets: Sequence[bytes]) -> float:
+        r = self.single(packets)
+        value = r.coord("value", READ_FLOAT_WIDTH)
+        r.end()
+        return value
+
+    def encode_answer(self, result: float) -> list[bytes]:
+        return [self.ok(encode_coord(self.CODE, "value", result, READ_FLOAT_WIDTH))]
+
+
+@dataclass(frozen=True, slots=True)
+class WriteGlobalFloat(NoData):
+    """GW (Type '2'): write global float ``index`` (0-499) as 10 bytes with 3 decimals
+    (``"123456.123"``); further decimals are rounded away."""
+
+    CODE = "GW"
+    CHANGES_STATE = True
+    index: int
+    value: float
+
+    @classmethod
+    def matches(cls, params: bytes) -> bool:
+        return params[:1] == _type_byte(GlobalKind.FLOAT)
+
+    def encode_params(self) -> bytes:
+        return _value_index(self.CODE, GlobalKind.FLOAT, self.index) + encode_coord(
+            self.CODE, "value", self.value, WRITE_FLOAT_WIDTH
+        )
+
+    @classmethod
+    def decode_params(cls, reader: Reader) -> Self:
+        index = _read_value_index(reader, GlobalKind.FLOAT)
+        return cls(index, reader.coord("value", WRITE_FLOAT_WIDTH))
