@@ -1,0 +1,436 @@
+"""``robostar jog``: the full-screen jog pad, and a timed jog for scripts.
+
+The pad jogs only while a key is held. A terminal reports presses, not releases: a held key
+sends one press and then, after the keyboard's autorepeat delay, a stream of repeats. So a
+first press keeps the jog going for ``--hold`` seconds (just over the autorepeat delay), each
+repeat for a short window more, and when the repeats stop the jog stops (the client's jog
+context sends BG). Losing the terminal stops it too, and leaving always sends BG.
+"""
+
+from __future__ import annotations
+
+import time
+from contextlib import ExitStack
+from dataclasses import dataclass, field
+
+import click
+from rich.console import Group, RenderableType
+from rich.live import Live
+from rich.panel import Panel
+from rich.table import Table
+from rich.text import Text
+
+from robostar.cli.keys import KeyReader, TerminalLost
+from robostar.cli.options import common_options
+from robostar.cli.reading import position_json, position_view
+from robostar.cli.render import format_number, status_lamps
+from robostar.cli.session import Session, pass_session
+from robostar.commands.control import ReadSpeed, SetSpeed
+from robostar.commands.motion import JogContinue, JogStart, JogStop
+from robostar.commands.status import ReadInfo, ReadPosition, ReadStatus
+from robostar.errors import ControllerError, LineError, RobostarError, UsageError
+from robostar.types import ChannelStatus, JogDirection, MotionType, Position, PositionKind
+
+__all__ = ["ChangeSpeed", "JogPad", "Quit", "StartJog", "StopJog", "ToggleMotion", "jog"]
+
+SPEED_STEP = 50
+REPEAT_HOLD = 0.2
+"""How long one autorepeat keeps a jog going; autorepeat sends keys every 30-50 ms."""
+
+_PLUS = {"right", "d", "l", "."}
+_MINUS = {"left", "a", "h", ","}
+_FASTER = {"up", "+", "="}
+_SLOWER = {"down", "-", "_"}
+_QUIT = {"q", "Q", "esc", "ctrl-c"}
+
+
+@dataclass(frozen=True, slots=True)
+class StartJog:
+    axis: int
+    direction: JogDirection
+
+
+@dataclass(frozen=True, slots=True)
+class StopJog:
+    pass
+
+
+@dataclass(frozen=True, slots=True)
+class ChangeSpeed:
+    speed: int
+
+
+@dataclass(frozen=True, slots=True)
+class ToggleMotion:
+    motion: MotionType
+
+
+@dataclass(frozen=True, slots=True)
+class Quit:
+    pass
+
+
+Action = StartJog | StopJog | ChangeSpeed | ToggleMotion | Quit
+
+
+@dataclass
+class JogPad:
+    """The pad's logic, without a terminal or a clock: keys and ticks in, actions out."""
+
+    axes: int
+    speed: int
+    hold: float = 0.55
+    repeat_hold: float = REPEAT_HOLD
+    axis: int = 1
+    motion: MotionType = MotionType.JOINT
+    jogging: JogDirection | None = None
+    held_until: float = 0.0
+    _actions: list[Action] = field(default_factory=list)
+
+    def key(self, name: str, now: float) -> list[Action]:
+        """Take one key press (or autorepeat) at time ``now``."""
+        self._actions = []
+        if name in _PLUS or name in _MINUS:
+            direction = JogDirection.PLUS if name in _PLUS else JogDirection.MINUS
+            if self.jogging is direction:
+                self.held_until = max(self.held_until, now + self.repeat_hold)
+            else:
+                self._stop()
+                self.jogging = direction
+                self.held_until = now + self.hold
+                self._actions.append(StartJog(self.axis, direction))
+        elif name.isdigit() and 1 <= int(name) <= self.axes:
+            if int(name) != self.axis:
+                self._stop()
+                self.axis = int(name)
+        elif name == "tab":
+            self._stop()
+            self.axis = self.axis % self.axes + 1
+        elif name in _FASTER or name in _SLOWER:
+            step = SPEED_STEP if name in _FASTER else -SPEED_STEP
+            speed = min(1000, max(0, self.speed + step))
+            if speed != self.speed:
+                self.speed = speed
+                self._actions.append(ChangeSpeed(speed))
+        elif name == "m":
+            self._stop()
+            linear = self.motion is MotionType.JOINT
+            self.motion = MotionType.LINEAR if linear else MotionType.JOINT
+            self._actions.append(ToggleMotion(self.motion))
+        elif name == "space":
+            self._stop()
+        elif name in _QUIT:
+            self._stop()
+            self._actions.append(Quit())
+        return self._actions
+
+    def tick(self, now: float) -> list[Action]:
+        """Stop a jog whose key is no longer held."""
+        self._actions = []
+        if self.jogging is not None and now >= self.held_until:
+            self._stop()
+        return self._actions
+
+    def next_deadline(self) -> float | None:
+        return self.held_until if self.jogging is not None else None
+
+    def _stop(self) -> None:
+        if self.jogging is not None:
+            self.jogging = None
+            self._actions.append(StopJog())
+
+
+@dataclass
+class _View:
+    channel: int
+    model: str
+    position: Position | None = None
+    status: ChannelStatus | None = None
+    message: Text = field(default_factory=Text)
+    line_ok: bool = True
+
+
+_HELP = (
+    "hold ←/→ jog −/+   1-6 or Tab pick the axis   ↑/↓ speed ±50   "
+    "m joint/linear   space stop   q leave"
+)
+
+
+def _render(pad: JogPad, view: _View) -> RenderableType:
+    table = Table(box=None, pad_edge=False, expand=False)
+    table.add_column("")
+    table.add_column("axis")
+    table.add_column("position", justify="right")
+    table.add_column("")
+    pos = view.position
+    for axis in range(1, pad.axes + 1):
+        chosen = axis == pad.axis
+        value = format_number(pos[axis]) if pos is not None and axis <= len(pos.axes) else "-"
+        state = ""
+        if chosen and pad.jogging is not None:
+            state = "jogging +" if pad.jogging is JogDirection.PLUS else "jogging -"
+        table.add_row(
+            "▶" if chosen else "",
+            Text(f"axis {axis}", style="bold" if chosen else ""),
+            value,
+            Text(state, style="bold yellow"),
+        )
+    motion = "linear (XY)" if pad.motion is MotionType.LINEAR else "joint"
+    head = Text(
+        f"channel {view.channel} {view.model}   speed {pad.speed} ({pad.speed / 10:g} %)   "
+        f"motion {motion}",
+        style="bold",
+    )
+    parts: list[RenderableType] = [head, table]
+    if view.status is not None:
+        parts.append(status_lamps(view.status))
+    if not view.line_ok:
+        parts.append(Text("NO ANSWER FROM THE CONTROLLER", style="bold white on red"))
+    parts.append(view.message)
+    parts.append(Text(_HELP, style="dim"))
+    return Panel(Group(*parts), title="robostar jog", border_style="cyan")
+
+
+def _jog_direction(text: str) -> JogDirection:
+    return JogDirection.PLUS if text in ("+", "plus") else JogDirection.MINUS
+
+
+class _PadRunner:
+    """Drives the pad: keys from the terminal, actions on the client, the screen refreshed."""
+
+    def __init__(self, session: Session, pad: JogPad, view: _View, poll: float):
+        self.session = session
+        self.client = session.client
+        self.pad = pad
+        self.view = view
+        self.poll = poll
+        self._jog = ExitStack()
+
+    def apply(self, action: Action) -> bool:
+        """Carry out one action; False when the pad should close."""
+        channel = self.view.channel
+        try:
+            if isinstance(action, StartJog):
+                direction = "+" if action.direction is JogDirection.PLUS else "-"
+                self._jog.enter_context(
+                    self.client.jog(channel, action.axis, action.direction, motion=self.pad.motion)
+                )
+                self.view.message = Text(f"jogging axis {action.axis} {direction}", "yellow")
+            elif isinstance(action, StopJog):
+                self._jog.close()
+                self.view.message = Text("stopped", "green")
+            elif isinstance(action, ChangeSpeed):
+                self.client.execute(SetSpeed(channel, action.speed))
+                self.view.message = Text(f"speed {action.speed}")
+            elif isinstance(action, ToggleMotion):
+                self.view.message = Text(f"motion {action.motion.name.lower()}")
+            else:
+                return False
+        except ControllerError as error:
+            self.pad.jogging = None
+            self._jog = ExitStack()
+            reason = error.reason or error.describe
+            self.view.message = Text(f"refused: {reason}", "bold red")
+        except LineError as error:
+            self.pad.jogging = None
+            self._jog = ExitStack()
+            self.view.line_ok = False
+            self.view.message = Text(f"line failed: {error}", "bold red")
+        except RobostarError as error:
+            # A jog whose keepalive failed has stopped on the controller: say so, carry on.
+            self.pad.jogging = None
+            self._jog = ExitStack()
+            self.view.message = Text(str(error), "bold red")
+        return True
+
+    def refresh(self) -> None:
+        channel = self.view.channel
+        kind = PositionKind.XY if self.pad.motion is MotionType.LINEAR else PositionKind.ANGLE
+        try:
+            self.view.position = self.client.execute(ReadPosition(channel, kind))
+            self.view.status = self.client.execute(ReadStatus())[channel - 1]
+            self.view.line_ok = True
+        except ControllerError as error:
+            self.view.message = Text(f"refused: {error.reason or error.describe}", "bold red")
+        except LineError:
+            self.view.line_ok = False
+
+    def run(self, reader: KeyReader) -> None:
+        console = self.session.out.console
+        next_poll = 0.0
+        with Live(console=console, screen=True, auto_refresh=False) as live:
+            try:
+                while True:
+                    now = time.monotonic()
+                    if now >= next_poll:
+                        self.refresh()
+                        next_poll = now + self.poll
+                    live.update(_render(self.pad, self.view), refresh=True)
+                    wake = min(next_poll, self.pad.next_deadline() or next_poll)
+                    try:
+                        keys = reader.read(wake - time.monotonic())
+                    except TerminalLost:
+                        return
+                    now = time.monotonic()
+                    actions: list[Action] = []
+                    for key in keys:
+                        actions += self.pad.key(key, now)
+                    actions += self.pad.tick(now)
+                    if not all(self.apply(a) for a in actions):
+                        return
+            finally:
+                self.close()
+
+    def close(self) -> None:
+        """Stop any jog, then send BG whatever state we think we are in."""
+        try:
+            self._jog.close()
+        finally:
+            self.client.execute(JogStop(self.view.channel))
+
+
+@click.command()
+@click.option(
+    "--axis",
+    type=click.IntRange(1, 6),
+    default=1,
+    show_default=True,
+    help="The axis to jog (the pad starts on it).",
+)
+@click.option(
+    "--direction",
+    type=click.Choice(["+", "-", "plus", "minus"]),
+    default=None,
+    help="With --for: a timed jog in this direction, without the pad.",
+)
+@click.option(
+    "--for",
+    "seconds",
+    type=click.FloatRange(0.0, 60.0),
+    default=None,
+    metavar="SECONDS",
+    help="Jog for this long, then stop (no terminal needed).",
+)
+@click.option(
+    "--speed",
+    type=click.IntRange(0, 1000),
+    default=None,
+    help="Set the channel's speed (0-1000) first.",
+)
+@click.option("--linear", is_flag=True, help="Jog along X/Y/Z (LMOV) instead of one joint.")
+@click.option(
+    "--hold",
+    type=click.FloatRange(0.1, 2.0),
+    default=0.55,
+    show_default=True,
+    metavar="SECONDS",
+    help="How long a first key press jogs before autorepeat takes over; set it just "
+    "above your keyboard's repeat delay.",
+)
+@click.option(
+    "--poll",
+    type=click.FloatRange(0.05, 5.0),
+    default=0.2,
+    show_default=True,
+    metavar="SECONDS",
+    help="How often the pad reads the position.",
+)
+@common_options(channel=True)
+@pass_session
+def jog(
+    session: Session,
+    axis: int,
+    direction: str | None,
+    seconds: float | None,
+    speed: int | None,
+    linear: bool,
+    hold: float,
+    poll: float,
+) -> None:
+    """Jog the robot from a full-screen pad: it moves only while you hold a key.
+
+    Hold → or ← to jog the chosen axis + or −; 1-6 or Tab pick the axis; ↑/↓ change the speed;
+    m switches joint/linear; q leaves. Releasing the key, losing the terminal or leaving
+    always stops the jog (BG). With --direction and --for it makes one timed jog instead,
+    which needs no terminal.
+
+    \b
+    Example:
+      robostar jog
+      robostar jog --axis 3 --direction + --for 0.5
+    """
+    channel = session.channel
+    motion = MotionType.LINEAR if linear else MotionType.JOINT
+    if (direction is None) != (seconds is None):
+        raise UsageError("a timed jog needs both --direction and --for")
+    if direction is not None and seconds is not None:
+        _timed(session, axis, _jog_direction(direction), seconds, speed, motion)
+        return
+    if session.dry_run:
+        session.plan(
+            [
+                JogStart(channel, axis, JogDirection.PLUS, motion),
+                JogContinue(channel),
+                JogStop(channel),
+            ],
+            note="The pad sends BE when a key goes down, BF every 200 ms while it is held, "
+            "and BG when it is released.",
+        )
+    reader = KeyReader()
+    if not reader.is_terminal():
+        raise UsageError(
+            "the jog pad needs a terminal; for a jog from a script use --direction and --for"
+        )
+    if speed is not None:
+        session.send(SetSpeed(channel, speed))
+    info = session.send(ReadInfo()).channel(channel)
+    axes = len(info.axes_in_use) or 6
+    current_speed = session.send(ReadSpeed(channel))
+    pad = JogPad(axes=axes, speed=current_speed, hold=hold, axis=min(axis, axes), motion=motion)
+    view = _View(channel, info.model)
+    session.announce(f"Jog pad on channel {channel}: the robot moves while you hold a key.")
+    runner = _PadRunner(session, pad, view, poll)
+    with reader.cbreak():
+        runner.run(reader)
+    pos = session.send(ReadPosition(channel, PositionKind.XY))
+    session.out.result(
+        {"ok": True, "channel": channel, "position": position_json(channel, pos)},
+        lambda: Group(Text("Jog pad closed; jog stopped."), position_view(channel, pos)),
+    )
+
+
+def _timed(
+    session: Session,
+    axis: int,
+    direction: JogDirection,
+    seconds: float,
+    speed: int | None,
+    motion: MotionType,
+) -> None:
+    channel = session.channel
+    if session.dry_run:
+        session.plan(
+            [JogStart(channel, axis, direction, motion), JogContinue(channel), JogStop(channel)],
+            note=f"BF repeats every 200 ms for {seconds:g} s, then BG.",
+        )
+    if speed is not None:
+        session.send(SetSpeed(channel, speed))
+    sign = "+" if direction is JogDirection.PLUS else "-"
+    session.announce(f"Channel {channel} axis {axis} will jog {sign} for {seconds:g} s.")
+    with session.client.jog(channel, axis, direction, motion=motion):
+        time.sleep(seconds)
+    session.client.wait_stopped(channel, 30.0)
+    pos = session.send(ReadPosition(channel, PositionKind.ANGLE))
+    session.out.result(
+        {
+            "ok": True,
+            "channel": channel,
+            "axis": axis,
+            "direction": sign,
+            "seconds": seconds,
+            "position": position_json(channel, pos),
+        },
+        lambda: Group(
+            Text(f"Jogged axis {axis} {sign} for {seconds:g} s."), position_view(channel, pos)
+        ),
+    )

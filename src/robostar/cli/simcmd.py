@@ -1,0 +1,140 @@
+"""``robostar sim``: serve the virtual N1 on TCP and/or a pseudo-terminal until Ctrl-C."""
+
+from __future__ import annotations
+
+import json
+import sys
+from urllib.parse import parse_qsl
+
+import click
+
+from robostar.cli.options import common_options
+from robostar.cli.session import Session, pass_session
+from robostar.errors import UsageError
+
+__all__ = ["sim"]
+
+
+@click.command()
+@click.option(
+    "--listen",
+    default="127.0.0.1:9100",
+    show_default=True,
+    metavar="HOST:PORT",
+    help="TCP address to serve on (port 0 picks a free one; 'none' for no TCP).",
+)
+@click.option("--pty", is_flag=True, help="Also serve on a pseudo-terminal (a serial device).")
+@click.option(
+    "--count",
+    type=click.IntRange(1, 32),
+    default=1,
+    show_default=True,
+    help="Controllers to serve, on consecutive ports.",
+)
+@click.option(
+    "--state",
+    "state_dir",
+    type=click.Path(file_okay=False),
+    default=None,
+    metavar="DIR",
+    help="Keep the controllers' files and variables in DIR across runs.",
+)
+@click.option(
+    "--fault",
+    "faults",
+    multiple=True,
+    metavar="SPEC",
+    help="Inject line faults, e.g. corrupt:0.01, drop:to_host:0.005, delay:0.5@3.",
+)
+@click.option(
+    "--baud",
+    type=click.IntRange(300, 4_000_000),
+    default=None,
+    help="Pace the bytes as a serial line at this baud rate.",
+)
+@click.option(
+    "--turnaround",
+    type=click.FloatRange(0.0, 5.0),
+    default=0.0,
+    metavar="SECONDS",
+    help="Delay before each answer leaves, like a real controller's.",
+)
+@click.option(
+    "--config",
+    "config_file",
+    type=click.Path(exists=True, dir_okay=False),
+    default=None,
+    help="The controller's configuration (TOML, see docs/simulator.md).",
+)
+@click.option(
+    "--options",
+    "query",
+    default=None,
+    metavar="QUERY",
+    help="Configuration as a sim:// query instead, e.g. channels=1&robot=xy&speedup=5.",
+)
+@click.option(
+    "--allow-remote",
+    is_flag=True,
+    help="Allow a non-loopback --listen address (the simulator has no security).",
+)
+@common_options()
+@pass_session
+def sim(
+    session: Session,
+    listen: str,
+    pty: bool,
+    count: int,
+    state_dir: str | None,
+    faults: tuple[str, ...],
+    baud: int | None,
+    turnaround: float,
+    config_file: str | None,
+    query: str | None,
+    allow_remote: bool,
+) -> None:
+    """Run the simulator: a virtual N1 for other programs (or another robostar) to talk to.
+
+    Each endpoint is printed when it is ready (with --json, one JSON line listing them); point
+    --port at it. Ctrl-C or SIGTERM stops it.
+
+    \b
+    Example:
+      robostar sim --listen 127.0.0.1:9100
+      robostar --port tcp://127.0.0.1:9100 status     # in another terminal
+      robostar sim --pty --listen none --fault corrupt:0.01
+    """
+    from robostar.sim import SimConfig
+    from robostar.sim.server import serve
+
+    if config_file and query:
+        raise UsageError("give --config or --options, not both")
+    if config_file:
+        config = SimConfig.from_file(config_file)
+    elif query:
+        config = SimConfig.from_query(dict(parse_qsl(query, keep_blank_values=True)))
+    else:
+        config = SimConfig()
+    address = None if listen.strip().lower() in ("", "none") else listen
+
+    def ready(endpoints: list[str]) -> None:
+        if session.out.json:
+            click.echo(json.dumps({"ready": True, "endpoints": endpoints}))
+        else:
+            for endpoint in endpoints:
+                click.echo(endpoint)
+            session.out.note("Simulator running; Ctrl-C stops it.")
+        sys.stdout.flush()
+
+    serve(
+        config,
+        listen=address,
+        pty=pty,
+        count=count,
+        state_dir=state_dir,
+        faults=list(faults),
+        baud=baud,
+        turnaround=turnaround,
+        allow_remote=allow_remote,
+        on_ready=ready,
+    )
