@@ -53,6 +53,7 @@ SUBCOMMANDS: dict[str, str] = {
     "decode": "robostar.cli.decode:decode",
     "doctor": "robostar.cli.doctor:doctor",
     "sim": "robostar.cli.simcmd:sim",
+    "sim-input": "robostar.cli.simcmd:sim_input",
     "demo": "robostar.cli.demo:demo",
 }
 

@@ -12,7 +12,7 @@ from robostar.cli.options import common_options
 from robostar.cli.session import Session, pass_session
 from robostar.errors import UsageError
 
-__all__ = ["sim"]
+__all__ = ["sim", "sim_input"]
 
 
 @click.command()
@@ -74,6 +74,12 @@ __all__ = ["sim"]
     help="Configuration as a sim:// query instead, e.g. channels=1&robot=xy&speedup=5.",
 )
 @click.option(
+    "--control",
+    default=None,
+    metavar="HOST:PORT",
+    help="Open a loopback control socket for `robostar sim-input` (set inputs, raise alarms).",
+)
+@click.option(
     "--allow-remote",
     is_flag=True,
     help="Allow a non-loopback --listen address (the simulator has no security).",
@@ -91,6 +97,7 @@ def sim(
     turnaround: float,
     config_file: str | None,
     query: str | None,
+    control: str | None,
     allow_remote: bool,
 ) -> None:
     """Run the simulator: a virtual N1 for other programs (or another robostar) to talk to.
@@ -103,6 +110,7 @@ def sim(
       robostar sim --listen 127.0.0.1:9100
       robostar --port tcp://127.0.0.1:9100 status     # in another terminal
       robostar sim --pty --listen none --fault corrupt:0.01
+      robostar sim --control 127.0.0.1:9199     # then: robostar sim-input 0 3 on
     """
     from robostar.sim import SimConfig
     from robostar.sim.server import serve
@@ -137,4 +145,55 @@ def sim(
         turnaround=turnaround,
         allow_remote=allow_remote,
         on_ready=ready,
+        control=control,
     )
+
+
+@click.command("sim-input")
+@click.argument("port", type=click.IntRange(0, 4))
+@click.argument("contact", type=click.IntRange(0, 15))
+@click.argument("state", type=click.Choice(["on", "off"], case_sensitive=False))
+@click.option(
+    "--control",
+    default="127.0.0.1:9199",
+    show_default=True,
+    metavar="HOST:PORT",
+    help="The control socket a `robostar sim --control` opened.",
+)
+@click.option(
+    "--controller",
+    type=click.IntRange(1, 32),
+    default=1,
+    show_default=True,
+    help="Which controller, when the simulator serves several (--count).",
+)
+@common_options()
+@pass_session
+def sim_input(
+    session: Session, port: int, contact: int, state: str, control: str, controller: int
+) -> None:
+    """Set an input contact of a running simulator (a sensor, a push button).
+
+    \b
+    Example:
+      robostar sim --control 127.0.0.1:9199 &
+      robostar sim-input 0 3 on                  # port 0, contact 3 on
+      robostar --port tcp://127.0.0.1:9100 io in 0
+    """
+    from robostar.sim.control import send_control
+    from robostar.sim.server import parse_listen
+
+    line = f"input {port} {contact} {state.lower()} {controller}"
+    try:
+        answer = send_control(parse_listen(control), line)
+    except OSError as error:
+        raise UsageError(
+            f"no simulator control socket at {control} ({error}); start one with "
+            f"`robostar sim --control {control}`"
+        ) from None
+    if answer != "ok":
+        raise UsageError(f"the simulator refused: {answer.removeprefix('error: ')}")
+    if session.out.json:
+        click.echo(json.dumps({"port": port, "contact": contact, "on": state.lower() == "on"}))
+    else:
+        click.echo(f"input {port}.{contact} {state.lower()}")

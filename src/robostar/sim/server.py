@@ -638,14 +638,17 @@ def serve(
     allow_remote: bool = False,
     on_ready: Callable[[list[str]], None] | None = None,
     stop: threading.Event | None = None,
+    control: str | None = None,
 ) -> None:
     """Serve ``count`` virtual controllers until Ctrl-C, SIGTERM or ``stop`` is set.
 
     Controller N listens on ``listen``'s port + N - 1 (each takes a free port if it is 0) and,
     with ``pty``, on a pseudo-terminal of its own. ``state_dir`` keeps the state across runs
     (``state_dir/ctrl-N`` for each when ``count`` > 1). ``faults`` are ``--fault`` specs;
-    ``baud`` (or a ``turnaround`` alone, at 115200 baud) turns line timing on. The endpoints
-    (``tcp://...`` URLs, device paths) go to ``on_ready`` once all are up, else to stdout.
+    ``baud`` (or a ``turnaround`` alone, at 115200 baud) turns line timing on. ``control``
+    (a loopback ``HOST:PORT``) opens the control socket of :mod:`robostar.sim.control`. The
+    endpoints (``tcp://...`` URLs, device paths, ``control://...``) go to ``on_ready`` once all
+    are up, else to stdout.
     """
     from robostar.sim.config import SimConfig
 
@@ -673,6 +676,7 @@ def serve(
         ]
 
     hosts: list[PeerHost] = []
+    control_server = None
     stop = stop if stop is not None else threading.Event()
     in_main = threading.current_thread() is threading.main_thread()
     previous = signal.getsignal(signal.SIGTERM) if in_main else None
@@ -690,13 +694,20 @@ def serve(
                 host.open_pty()
         for host in hosts:
             host.start()
+        endpoints = [e for host in hosts for e in host.endpoints]
+        if control is not None:
+            from robostar.sim.control import ControlServer
+
+            control_host, control_port = parse_listen(control)
+            control_server = ControlServer(hosts, control_host, control_port).start()
+            endpoints.append(control_server.endpoint)
         if in_main:
 
             def _on_term(signum: int, frame: FrameType | None) -> None:
                 stop.set()
 
             signal.signal(signal.SIGTERM, _on_term)
-        (on_ready or _print_endpoints)([e for host in hosts for e in host.endpoints])
+        (on_ready or _print_endpoints)(endpoints)
         while not stop.wait(0.25):
             for host in hosts:
                 if host.failure is not None:
@@ -704,6 +715,8 @@ def serve(
     except KeyboardInterrupt:
         pass
     finally:
+        if control_server is not None:
+            control_server.close()
         for host in hosts:
             host.close()
         if in_main and previous is not None:
