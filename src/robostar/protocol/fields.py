@@ -72,8 +72,8 @@ def check_channel(command: str, channel: int, field: str = "channel") -> int:
 
 
 def encode_code(command: str, field: str, value: int, lo: int, hi: int) -> bytes:
-    """A one-byte ASCII digit code (``0`` -> ``b"0"``)."""
-    return b"%d" % check_range(command, field, int(value), lo, hi)
+    """A one-byte ASCII digit code (``0`` -> ``b"0"``); an IntEnum member is its value."""
+    return b"%d" % check_range(command, field, value, lo, hi)
 
 
 def encode_channel(command: str, channel: int, field: str = "channel") -> bytes:

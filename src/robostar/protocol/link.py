@@ -17,7 +17,7 @@ import enum
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
-from robostar.errors import LinkRuleError
+from robostar.errors import LinkRuleError, UsageError
 from robostar.protocol.fields import FLAG_END, FLAG_OK
 from robostar.protocol.frame import (
     ACK,
@@ -538,7 +538,9 @@ class HostLink(Link):
         if self._is_resend(data):
             self._ack(data)
             self._emit(Ignored("resent answer (ACKed again)", self.state))
-            self._arm(self.timeout)
+            # Never shorten the wait: in WAIT_SECOND it runs to the announced work time.
+            if self._deadline is None or self._now + self.timeout > self._deadline:
+                self._arm(self.timeout)
             return
         try:
             flag = split_answer(data).flag
@@ -644,7 +646,10 @@ class ControllerLink(Link):
     def send_answer(self, packets: Sequence[bytes], after: After, now: float) -> list[LinkEvent]:
         """Answer the current request (or upload packet) with one or more packets' data."""
         if not packets:
-            raise ValueError("send_answer needs at least one packet")
+            raise UsageError("send_answer: packets must hold at least one packet")
+        for data in packets:
+            # Later packets go out only after ACKs; refuse a bad one now, before any is sent.
+            encode_packet(data)
         self._now = now
         self._pending = (list(packets), after)
         self._fire(Input.SEND_ANSWER, b"")

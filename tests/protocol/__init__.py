@@ -1,0 +1,1 @@
+"""Tests of robostar.protocol: framing, field codecs and the link machine."""

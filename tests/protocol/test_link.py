@@ -1,0 +1,1325 @@
+"""Tests of the link machine: every transition of the table, and each exchange shape, by hand.
+
+Both ends are driven with explicit ``now`` values; nothing sleeps. A :class:`Pair` moves bytes
+from one end's ``data_to_send()`` into the other's ``receive_data`` until the line is quiet.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import pytest
+
+from robostar.errors import LinkRuleError, PacketTooLongError, UsageError
+from robostar.protocol.frame import ACK, NAK, RST, encode_packet
+from robostar.protocol.link import (
+    MAX_NAKS,
+    MAX_RESENDS,
+    TRANSITIONS,
+    After,
+    AnswerReceived,
+    ControllerLink,
+    ExchangeComplete,
+    ExchangeFailed,
+    FailReason,
+    HostLink,
+    Ignored,
+    Input,
+    Link,
+    LinkEvent,
+    RequestReceived,
+    Role,
+    State,
+    UploadPacketReceived,
+    UploadReady,
+)
+from robostar.protocol.packets import Shape
+
+ACK_B = bytes((ACK,))
+NAK_B = bytes((NAK,))
+RST_B = bytes((RST,))
+BAD_LRC = bytes.fromhex("02 30 41 03 00")  # LRC should be 0x71
+
+AA = b"\xffAA"
+AA_ANSWER = b"0\xb5\x80\x80"
+AB = b"\xffAB"
+ALARM_1 = b"0E1153 : T/P Emergency       "
+ALARM_2 = b"0E1104 : Servo Not Redy      "
+END = b"4"
+DB = b"\xffDB01"  # servo on, channel 1
+DB_FIRST = b"002"  # OK, expected wait 2 s
+OK = b"0"
+FB = b"\xffFB0      RS.JOB001"
+FB_OK = b"\xff0"
+LINE_1 = b"MAIN\n"
+LINE_2 = b"EOP\n"
+
+
+def frame(data: bytes) -> bytes:
+    return encode_packet(data)
+
+
+@dataclass
+class Pair:
+    """A host and a controller joined by a perfect in-memory line, with a clock set by hand."""
+
+    host: HostLink = field(default_factory=HostLink)
+    ctl: ControllerLink = field(default_factory=ControllerLink)
+    now: float = 0.0
+    host_events: list[LinkEvent] = field(default_factory=list)
+    ctl_events: list[LinkEvent] = field(default_factory=list)
+    to_ctl: list[bytes] = field(default_factory=list)
+    to_host: list[bytes] = field(default_factory=list)
+
+    def pump(self) -> None:
+        """Carry bytes both ways until neither end has anything to send."""
+        while True:
+            up = self.host.data_to_send()
+            down = self.ctl.data_to_send()
+            if not up and not down:
+                return
+            if up:
+                self.to_ctl.append(up)
+                self.ctl_events += self.ctl.receive_data(up, self.now)
+            if down:
+                self.to_host.append(down)
+                self.host_events += self.host.receive_data(down, self.now)
+
+    def request(self, data: bytes, shape: Shape = Shape.SINGLE) -> None:
+        self.host_events += self.host.send_request(data, shape, self.now)
+        self.pump()
+
+    def answer(self, packets: list[bytes], after: After = After.DONE) -> None:
+        self.ctl_events += self.ctl.send_answer(packets, after, self.now)
+        self.pump()
+
+    def at(self, now: float) -> None:
+        """Advance the clock and fire the timers that are due, the controller's first.
+
+        The controller goes first so that a resend due at the very instant of the host's
+        deadline reaches the host in time (see the race test near the end of this file).
+        """
+        self.now = now
+        self.ctl_events += self.ctl.handle_timeout(now)
+        self.pump()
+        self.host_events += self.host.handle_timeout(now)
+        self.pump()
+
+    def take(self) -> tuple[list[LinkEvent], list[LinkEvent]]:
+        events = (self.host_events, self.ctl_events)
+        self.host_events, self.ctl_events = [], []
+        return events
+
+
+def answers(events: list[LinkEvent]) -> list[bytes]:
+    return [e.data for e in events if isinstance(e, AnswerReceived)]
+
+
+def failures(events: list[LinkEvent]) -> list[ExchangeFailed]:
+    return [e for e in events if isinstance(e, ExchangeFailed)]
+
+
+def completes(events: list[LinkEvent]) -> int:
+    return sum(isinstance(e, ExchangeComplete) for e in events)
+
+
+# ===============================================================================================
+# The table: every entry exercised, every missing pair a broken rule
+# ===============================================================================================
+HOST_APP = frozenset((Input.SEND_REQUEST, Input.SEND_LINE, Input.SEND_END, Input.ABORT))
+CTL_APP = frozenset((Input.SEND_ANSWER, Input.ACCEPT_UPLOAD, Input.ABORT))
+LINE_INPUTS = frozenset(
+    (Input.PACKET, Input.CORRUPT, Input.ACK, Input.NAK, Input.RST, Input.TIMEOUT)
+)
+APP_INPUTS = {Role.HOST: HOST_APP, Role.CONTROLLER: CTL_APP}
+T0 = 10.0
+
+
+def _host(shape: Shape, *answers_: bytes, end: bool = False) -> Link:
+    host = HostLink()
+    request = FB if shape is Shape.UPLOAD else b"\xffXX"
+    host.send_request(request, shape, T0)
+    for data in answers_:
+        host.receive_data(frame(data), T0)
+    if end:
+        host.send_upload_end(T0)
+    host.data_to_send()
+    return host
+
+
+def _ctl(*steps: Callable[[ControllerLink], object]) -> Link:
+    ctl = ControllerLink()
+    for step in steps:
+        step(ctl)
+    ctl.data_to_send()
+    return ctl
+
+
+def _ctl_request(ctl: ControllerLink) -> object:
+    return ctl.receive_data(frame(AA), T0)
+
+
+def _ctl_upload_started(ctl: ControllerLink) -> object:
+    ctl.receive_data(frame(FB), T0)
+    return ctl.send_answer([FB_OK], After.UPLOAD, T0)
+
+
+SETUPS: dict[tuple[Role, State], Callable[[], Link]] = {
+    (Role.HOST, State.IDLE): HostLink,
+    (Role.HOST, State.WAIT_ANSWER): lambda: _host(Shape.SINGLE),
+    (Role.HOST, State.WAIT_MORE): lambda: _host(Shape.MULTI, ALARM_1),
+    (Role.HOST, State.WAIT_SECOND): lambda: _host(Shape.TWO_PHASE, DB_FIRST),
+    (Role.HOST, State.UPLOAD_WAIT_REPLY): lambda: _host(Shape.UPLOAD),
+    (Role.HOST, State.UPLOAD_READY): lambda: _host(Shape.UPLOAD, FB_OK),
+    (Role.HOST, State.UPLOAD_WAIT_ACK): lambda: _host(Shape.UPLOAD, FB_OK, end=True),
+    (Role.CONTROLLER, State.LISTEN): ControllerLink,
+    (Role.CONTROLLER, State.HANDLING): lambda: _ctl(_ctl_request),
+    (Role.CONTROLLER, State.WAIT_ACK): lambda: _ctl(
+        _ctl_request, lambda c: c.send_answer([AA_ANSWER], After.DONE, T0)
+    ),
+    (Role.CONTROLLER, State.WORKING): lambda: _ctl(
+        _ctl_request,
+        lambda c: c.send_answer([DB_FIRST], After.SECOND_PHASE, T0),
+        lambda c: c.receive_data(ACK_B, T0),
+    ),
+    (Role.CONTROLLER, State.UPLOAD_WAIT_PACKET): lambda: _ctl(_ctl_upload_started),
+    (Role.CONTROLLER, State.UPLOAD_HANDLING): lambda: _ctl(
+        _ctl_upload_started, lambda c: c.receive_data(frame(OK + LINE_1), T0)
+    ),
+}
+"""How to reach each state from a fresh link, by its public interface only."""
+
+PACKET_FOR = {
+    State.IDLE: OK,
+    State.WAIT_ANSWER: AA_ANSWER,
+    State.WAIT_MORE: ALARM_2,
+    State.WAIT_SECOND: OK,
+    State.UPLOAD_WAIT_REPLY: FB_OK,
+    State.UPLOAD_READY: FB_OK,
+    State.UPLOAD_WAIT_ACK: b"\xff2",
+    State.LISTEN: AA,
+    State.HANDLING: AA,
+    State.WAIT_ACK: AB,
+    State.WORKING: AB,
+    State.UPLOAD_WAIT_PACKET: OK + LINE_2,
+    State.UPLOAD_HANDLING: OK + LINE_2,
+}
+"""A packet that the state's table entry (if any) takes as ordinary traffic."""
+
+
+def fire(link: Link, what: Input) -> list[LinkEvent]:
+    """Give ``link`` one input through its public interface, at time T0 + 0.5."""
+    now = T0 + 0.5
+    if what is Input.PACKET:
+        return link.receive_data(frame(PACKET_FOR[link.state]), now)
+    if what is Input.CORRUPT:
+        return link.receive_data(BAD_LRC, now)
+    if what in (Input.ACK, Input.NAK, Input.RST):
+        return link.receive_data({Input.ACK: ACK_B, Input.NAK: NAK_B, Input.RST: RST_B}[what], now)
+    if what is Input.TIMEOUT:
+        deadline = link.next_deadline()
+        assert deadline is not None
+        return link.handle_timeout(deadline)
+    if what is Input.ABORT:
+        return link.abort(now)
+    if isinstance(link, HostLink):
+        if what is Input.SEND_REQUEST:
+            return link.send_request(AA, Shape.SINGLE, now)
+        if what is Input.SEND_LINE:
+            return link.send_upload_line(LINE_2, now)
+        return link.send_upload_end(now)
+    assert isinstance(link, ControllerLink)
+    if what is Input.SEND_ANSWER:
+        after = After.UPLOAD if link.state is State.UPLOAD_HANDLING else After.DONE
+        return link.send_answer([FB_OK if after is After.UPLOAD else OK], after, now)
+    return link.accept_upload(now)
+
+
+@pytest.fixture
+def fired(monkeypatch: pytest.MonkeyPatch) -> list[tuple[Role, State, Input]]:
+    """Every (role, state, input) the links dispatch, recorded through a wrapper."""
+    log: list[tuple[Role, State, Input]] = []
+    original = Link._fire
+
+    def spy(self: Link, what: Input, data: bytes) -> None:
+        log.append((self.role, self.state, what))
+        original(self, what, data)
+
+    monkeypatch.setattr(Link, "_fire", spy)
+    return log
+
+
+def test_setups_cover_every_state_of_the_table() -> None:
+    in_table = {(role, state) for role, state, _ in TRANSITIONS}
+    assert set(SETUPS) == in_table
+    assert {state for _, state in in_table} == set(State)
+    for (role, state), setup in SETUPS.items():
+        link = setup()
+        assert (link.role, link.state) == (role, state)
+
+
+def test_the_table_names_real_handlers_and_each_roles_own_app_calls() -> None:
+    for (role, _state, what), name in TRANSITIONS.items():
+        cls = HostLink if role is Role.HOST else ControllerLink
+        assert callable(getattr(cls, name, None)), name
+        if what not in LINE_INPUTS:
+            assert what in APP_INPUTS[role]
+
+
+def test_a_state_without_a_timeout_entry_never_runs_a_timer() -> None:
+    for (role, state), setup in SETUPS.items():
+        if (role, state, Input.TIMEOUT) not in TRANSITIONS:
+            link = setup()
+            assert link.next_deadline() is None, state
+            assert link.handle_timeout(T0 + 1e6) == []
+            assert link.data_to_send() == b""
+
+
+@pytest.mark.parametrize(
+    "key", sorted(TRANSITIONS, key=lambda k: (k[0].value, k[1].value, k[2].value)), ids=str
+)
+def test_every_table_entry_runs_its_handler(
+    key: tuple[Role, State, Input], fired: list[tuple[Role, State, Input]]
+) -> None:
+    role, state, what = key
+    link = SETUPS[(role, state)]()
+    fired.clear()
+    events = fire(link, what)
+    assert fired[0] == key
+    assert not [f for f in failures(events) if f.reason is FailReason.RULE]
+
+
+def _missing() -> list[tuple[Role, State, Input]]:
+    return [
+        (role, state, what)
+        for role, state in SETUPS
+        for what in LINE_INPUTS | APP_INPUTS[role]
+        if (role, state, what) not in TRANSITIONS and what is not Input.TIMEOUT
+    ]
+
+
+@pytest.mark.parametrize("key", _missing(), ids=str)
+def test_every_missing_pair_breaks_a_rule(key: tuple[Role, State, Input]) -> None:
+    role, state, what = key
+    link = SETUPS[(role, state)]()
+    if what in APP_INPUTS[role]:
+        with pytest.raises(LinkRuleError) as info:
+            fire(link, what)
+        assert (info.value.role, info.value.state, info.value.event) == (
+            role.value,
+            state.value,
+            what.value,
+        )
+        assert link.state is state
+        assert link.data_to_send() == b""
+        return
+    events = fire(link, what)
+    assert link.data_to_send() == RST_B
+    assert link.idle
+    assert link.next_deadline() is None
+    [failed] = failures(events)
+    assert (failed.reason, failed.state) == (FailReason.RULE, state)
+    assert isinstance(failed.error, LinkRuleError)
+    assert (failed.error.state, failed.error.event) == (state.value, what.value)
+    assert state.value in failed.detail
+
+
+def test_missing_pairs_include_the_rules_the_manual_implies() -> None:
+    missing = set(_missing())
+    # A request while the controller is still handling one; a packet where the host owes the
+    # next upload line; an upload call outside an upload; an answer nobody asked for.
+    assert (Role.CONTROLLER, State.HANDLING, Input.PACKET) in missing
+    assert (Role.HOST, State.UPLOAD_READY, Input.PACKET) in missing
+    assert (Role.HOST, State.IDLE, Input.SEND_LINE) in missing
+    assert (Role.CONTROLLER, State.LISTEN, Input.SEND_ANSWER) in missing
+    assert (Role.HOST, State.WAIT_ANSWER, Input.SEND_REQUEST) in missing
+
+
+# ===============================================================================================
+# Exchange shapes, byte by byte
+# ===============================================================================================
+def test_single_exchange_bytes() -> None:
+    pair = Pair()
+    assert pair.host.send_request(AA, Shape.SINGLE, 0.0) == []
+    request = pair.host.data_to_send()
+    assert request == bytes.fromhex("02 FF 41 41 03 FF")
+    assert pair.host.state is State.WAIT_ANSWER
+    assert pair.host.next_deadline() == 2.0
+    assert pair.ctl.receive_data(request, 0.0) == [RequestReceived(AA)]
+    assert pair.ctl.state is State.HANDLING
+    assert pair.ctl.next_deadline() is None
+    assert pair.ctl.send_answer([AA_ANSWER], After.DONE, 0.1) == []
+    answer = pair.ctl.data_to_send()
+    assert answer == bytes.fromhex("02 30 B5 80 80 03 85")
+    assert pair.ctl.next_deadline() == pytest.approx(2.1)
+    assert pair.host.receive_data(answer, 0.1) == [
+        AnswerReceived(AA_ANSWER, 0x30, final=True),
+        ExchangeComplete(),
+    ]
+    assert pair.host.data_to_send() == ACK_B
+    assert pair.host.idle and pair.host.next_deadline() is None
+    assert pair.ctl.receive_data(ACK_B, 0.1) == [ExchangeComplete()]
+    assert pair.ctl.idle and pair.ctl.next_deadline() is None
+    assert pair.ctl.data_to_send() == b""
+
+
+def test_a_dummy_byte_before_the_flag_is_accepted() -> None:
+    pair = Pair()
+    pair.request(b"\xffAD")
+    pair.answer([b"\xff0" + b"3N1    V1.0"])
+    host, ctl = pair.take()
+    assert answers(host) == [b"\xff0" + b"3N1    V1.0"]
+    assert host[0] == AnswerReceived(b"\xff03N1    V1.0", 0x30, final=True)
+    assert completes(host) == completes(ctl) == 1
+
+
+def test_multi_exchange_each_packet_after_the_previous_ack() -> None:
+    pair = Pair()
+    pair.host.send_request(AB, Shape.MULTI, 0.0)
+    pair.ctl.receive_data(pair.host.data_to_send(), 0.0)
+    pair.ctl.send_answer([ALARM_1, ALARM_2, END], After.DONE, 0.0)
+    # Only the first packet goes out until the host ACKs it.
+    assert pair.ctl.data_to_send() == frame(ALARM_1)
+    assert pair.ctl.data_to_send() == b""
+    assert pair.host.receive_data(frame(ALARM_1), 0.1) == [
+        AnswerReceived(ALARM_1, 0x30, final=False)
+    ]
+    assert pair.host.state is State.WAIT_MORE
+    assert pair.host.next_deadline() == pytest.approx(2.1)
+    assert pair.host.data_to_send() == ACK_B
+    assert pair.ctl.receive_data(ACK_B, 0.1) == []
+    assert pair.ctl.data_to_send() == frame(ALARM_2)
+    assert pair.host.receive_data(frame(ALARM_2), 0.2) == [
+        AnswerReceived(ALARM_2, 0x30, final=False)
+    ]
+    assert pair.ctl.receive_data(pair.host.data_to_send(), 0.2) == []
+    assert pair.ctl.data_to_send() == bytes.fromhex("02 34 03 34")
+    assert pair.host.receive_data(frame(END), 0.3) == [
+        AnswerReceived(END, 0x34, final=True),
+        ExchangeComplete(),
+    ]
+    assert pair.host.data_to_send() == ACK_B  # END is ACKed too
+    assert pair.ctl.receive_data(ACK_B, 0.3) == [ExchangeComplete()]
+    assert pair.host.idle and pair.ctl.idle
+
+
+def test_multi_exchange_of_only_an_end_packet() -> None:
+    pair = Pair()
+    pair.request(AB, Shape.MULTI)
+    pair.answer([END])
+    host, ctl = pair.take()
+    assert answers(host) == [END]
+    assert completes(host) == completes(ctl) == 1
+
+
+def test_two_phase_db_waits_the_expected_time_plus_the_timeout() -> None:
+    pair = Pair()
+    pair.request(DB, Shape.TWO_PHASE)
+    pair.now = 0.5
+    pair.answer([DB_FIRST], After.SECOND_PHASE)
+    host, ctl = pair.take()
+    assert host == [AnswerReceived(DB_FIRST, 0x30, final=False)]
+    assert ctl == [RequestReceived(DB)]
+    assert pair.to_host[-1] == frame(DB_FIRST)
+    assert pair.to_ctl[-1] == ACK_B
+    assert pair.host.state is State.WAIT_SECOND
+    assert pair.host.next_deadline() == pytest.approx(0.5 + 2 + 2.0)
+    assert pair.ctl.state is State.WORKING
+    assert pair.ctl.next_deadline() is None
+    # Nothing happens before the deadline, even past the plain reply timeout.
+    pair.at(4.49)
+    assert pair.take() == ([], [])
+    assert pair.host.state is State.WAIT_SECOND
+    pair.now = 4.4
+    pair.answer([OK])
+    host, ctl = pair.take()
+    assert host == [AnswerReceived(OK, 0x30, final=True), ExchangeComplete()]
+    assert ctl == [ExchangeComplete()]
+    assert pair.to_ctl[-1] == ACK_B
+
+
+def test_two_phase_deadline_passes_without_a_second_answer() -> None:
+    pair = Pair()
+    pair.request(DB, Shape.TWO_PHASE)
+    pair.answer([b"010"], After.SECOND_PHASE)
+    assert pair.host.next_deadline() == pytest.approx(12.0)
+    pair.take()
+    pair.at(11.99)
+    assert pair.take() == ([], [])
+    pair.at(12.0)
+    host, ctl = pair.take()
+    assert [f.reason for f in failures(host)] == [FailReason.TIMEOUT]
+    assert failures(host)[0].state is State.WAIT_SECOND
+    assert [f.reason for f in failures(ctl)] == [FailReason.RESET]
+    assert pair.to_ctl[-1] == RST_B
+
+
+def test_two_phase_ce_takes_two_bare_flags_even_long_apart() -> None:
+    pair = Pair()
+    pair.request(b"\xffCE0", Shape.TWO_PHASE)
+    pair.answer([OK], After.SECOND_PHASE)
+    # CE's first answer has no wait: the deadline is the plain timeout.
+    assert pair.host.next_deadline() == pytest.approx(2.0)
+    pair.now = 1.5  # well past resend_gap: an equal packet is still the second answer
+    pair.answer([OK])
+    host, ctl = pair.take()
+    assert host == [
+        AnswerReceived(OK, 0x30, final=False),
+        AnswerReceived(OK, 0x30, final=True),
+        ExchangeComplete(),
+    ]
+    assert completes(ctl) == 1
+    assert pair.to_ctl[-2:] == [ACK_B, ACK_B]
+
+
+def test_two_phase_error_on_the_first_answer_ends_the_exchange() -> None:
+    pair = Pair()
+    pair.request(DB, Shape.TWO_PHASE)
+    pair.answer([b"2"])
+    host, ctl = pair.take()
+    assert host == [AnswerReceived(b"2", 0x32, final=True), ExchangeComplete()]
+    assert completes(ctl) == 1
+    assert pair.to_ctl[-1] == ACK_B
+
+
+def test_fb_upload_lines_end_and_lone_ack() -> None:
+    pair = Pair()
+    pair.request(FB, Shape.UPLOAD)
+    assert pair.host.state is State.UPLOAD_WAIT_REPLY
+    pair.answer([FB_OK], After.UPLOAD)
+    host, ctl = pair.take()
+    assert host == [UploadReady(FB_OK)]
+    assert ctl == [RequestReceived(FB)]
+    # The host does not ACK upload replies: its next packet answers them.
+    assert pair.to_ctl == [frame(FB)]
+    assert pair.host.next_deadline() is None
+    assert pair.ctl.state is State.UPLOAD_WAIT_PACKET
+    for line in (LINE_1, LINE_2):
+        pair.host_events += pair.host.send_upload_line(line, pair.now)
+        pair.pump()
+        assert pair.to_ctl[-1] == frame(b"0" + line)
+        host, ctl = pair.take()
+        assert ctl == [UploadPacketReceived(line, end=False)]
+        assert pair.ctl.state is State.UPLOAD_HANDLING
+        pair.answer([FB_OK], After.UPLOAD)
+        assert pair.to_host[-1] == bytes.fromhex("02 FF 30 03 CF")
+        host, ctl = pair.take()
+        assert host == [UploadReady(FB_OK)]
+    pair.host_events += pair.host.send_upload_end(pair.now)
+    pair.pump()
+    assert pair.to_ctl[-1] == bytes.fromhex("02 34 03 34")
+    assert pair.host.state is State.UPLOAD_WAIT_ACK
+    host, ctl = pair.take()
+    assert ctl == [UploadPacketReceived(b"", end=True)]
+    pair.ctl_events += pair.ctl.accept_upload(pair.now)
+    pair.pump()
+    assert pair.to_host[-1] == ACK_B
+    host, ctl = pair.take()
+    assert host == [ExchangeComplete()]
+    assert ctl == [ExchangeComplete()]
+    assert pair.host.idle and pair.ctl.idle
+
+
+def test_fb_refused_at_once() -> None:
+    pair = Pair()
+    pair.request(FB, Shape.UPLOAD)
+    pair.answer([b"\xff2"], After.FINAL)
+    host, ctl = pair.take()
+    assert host == [AnswerReceived(b"\xff2", 0x32, final=True), ExchangeComplete()]
+    assert ctl == [RequestReceived(FB), ExchangeComplete()]
+    assert pair.to_ctl == [frame(FB)]  # the error reply ends the upload: no ACK
+    assert pair.host.idle and pair.ctl.idle
+
+
+def test_fb_error_reply_mid_upload() -> None:
+    pair = Pair()
+    pair.request(FB, Shape.UPLOAD)
+    pair.answer([FB_OK], After.UPLOAD)
+    pair.host.send_upload_line(LINE_1, 0.0)
+    pair.pump()
+    pair.take()
+    pair.answer([b"\xff1"], After.FINAL)
+    host, ctl = pair.take()
+    assert host == [AnswerReceived(b"\xff1", 0x31, final=True), ExchangeComplete()]
+    assert ctl == [ExchangeComplete()]
+    assert pair.host.idle and pair.ctl.idle
+    assert pair.to_ctl[-1] == frame(b"0" + LINE_1)
+
+
+def test_fb_error_reply_in_place_of_the_final_ack() -> None:
+    pair = Pair()
+    pair.request(FB, Shape.UPLOAD)
+    pair.answer([FB_OK], After.UPLOAD)
+    pair.host.send_upload_end(0.0)
+    pair.pump()
+    pair.take()
+    pair.answer([b"\xff2"], After.FINAL)
+    host, ctl = pair.take()
+    assert host == [AnswerReceived(b"\xff2", 0x32, final=True), ExchangeComplete()]
+    assert ctl == [ExchangeComplete()]
+
+
+def test_fb_new_request_mid_upload_supersedes_it() -> None:
+    pair = Pair()
+    pair.request(FB, Shape.UPLOAD)
+    pair.answer([FB_OK], After.UPLOAD)
+    pair.take()
+    # The host gave up (its RST was lost) and asks something else.
+    pair.host.abort(0.0)
+    pair.host.data_to_send()
+    pair.take()
+    pair.request(AA)
+    _, ctl = pair.take()
+    assert [type(e) for e in ctl] == [ExchangeFailed, RequestReceived]
+    assert failures(ctl)[0].reason is FailReason.SUPERSEDED
+    assert pair.ctl.state is State.HANDLING
+
+
+@pytest.mark.parametrize("flag", [0x31, 0x32, 0x33])
+@pytest.mark.parametrize("shape", [Shape.SINGLE, Shape.MULTI, Shape.TWO_PHASE])
+def test_error_answers_are_acked_and_end_the_exchange(flag: int, shape: Shape) -> None:
+    pair = Pair()
+    pair.request(b"\xffCC0", shape)
+    error = bytes((flag,))
+    pair.answer([error])
+    host, ctl = pair.take()
+    assert host == [AnswerReceived(error, flag, final=True), ExchangeComplete()]
+    assert completes(ctl) == 1
+    assert pair.to_ctl[-1] == ACK_B
+
+
+def test_error_flag_mid_multi_ends_it() -> None:
+    pair = Pair()
+    pair.request(AB, Shape.MULTI)
+    pair.answer([ALARM_1, b"2"])
+    host, ctl = pair.take()
+    assert answers(host) == [ALARM_1, b"2"]
+    assert host[-2] == AnswerReceived(b"2", 0x32, final=True)
+    assert completes(host) == completes(ctl) == 1
+    assert pair.to_ctl[1:] == [ACK_B, ACK_B]
+
+
+# ===============================================================================================
+# NAK, corrupt packets, RST
+# ===============================================================================================
+def test_host_resends_the_same_request_bytes_on_nak() -> None:
+    host = HostLink()
+    host.send_request(AA, Shape.SINGLE, 0.0)
+    first = host.data_to_send()
+    assert host.receive_data(NAK_B, 1.5) == []
+    assert host.data_to_send() == first
+    assert host.next_deadline() == pytest.approx(3.5)  # the timer restarts with the resend
+
+
+def test_controller_resends_the_same_answer_bytes_on_nak() -> None:
+    pair = Pair()
+    pair.request(AB, Shape.MULTI)
+    pair.ctl.send_answer([ALARM_1, END], After.DONE, 0.0)
+    sent = pair.ctl.data_to_send()
+    assert pair.ctl.receive_data(NAK_B, 0.2) == []
+    assert pair.ctl.data_to_send() == sent == frame(ALARM_1)
+    assert pair.ctl.next_deadline() == pytest.approx(2.2)
+
+
+def test_host_resends_an_upload_line_and_the_end_on_nak() -> None:
+    pair = Pair()
+    pair.request(FB, Shape.UPLOAD)
+    pair.answer([FB_OK], After.UPLOAD)
+    pair.host.send_upload_line(LINE_1, 0.0)
+    line = pair.host.data_to_send()
+    pair.host.receive_data(NAK_B, 0.1)
+    assert pair.host.data_to_send() == line == frame(b"0" + LINE_1)
+    pair.host.receive_data(frame(FB_OK), 0.2)
+    pair.host.send_upload_end(0.2)
+    end = pair.host.data_to_send()
+    pair.host.receive_data(NAK_B, 0.3)
+    assert pair.host.data_to_send() == end == frame(END)
+
+
+def test_controller_resends_an_upload_reply_on_nak() -> None:
+    ctl = ControllerLink()
+    ctl.receive_data(frame(FB), 0.0)
+    ctl.send_answer([FB_OK], After.UPLOAD, 0.0)
+    reply = ctl.data_to_send()
+    ctl.receive_data(NAK_B, 0.1)
+    assert ctl.data_to_send() == reply
+
+
+def test_three_naks_are_resends_and_the_fourth_is_rst() -> None:
+    host = HostLink()
+    host.send_request(AA, Shape.SINGLE, 0.0)
+    first = host.data_to_send()
+    for i in range(MAX_NAKS):
+        assert host.receive_data(NAK_B, 0.1 * (i + 1)) == []
+        assert host.data_to_send() == first
+    events = host.receive_data(NAK_B, 0.4)
+    assert host.data_to_send() == RST_B
+    [failed] = failures(events)
+    assert (failed.reason, failed.state) == (FailReason.NAK_LIMIT, State.WAIT_ANSWER)
+    assert host.idle and host.next_deadline() is None
+
+
+def test_controller_naks_are_counted_per_packet() -> None:
+    pair = Pair()
+    pair.request(AB, Shape.MULTI)
+    pair.ctl.send_answer([ALARM_1, ALARM_2, END], After.DONE, 0.0)
+    pair.ctl.data_to_send()
+    for _ in range(MAX_NAKS):
+        pair.ctl.receive_data(NAK_B, 0.1)
+        assert pair.ctl.data_to_send() == frame(ALARM_1)
+    pair.ctl.receive_data(ACK_B, 0.2)
+    assert pair.ctl.data_to_send() == frame(ALARM_2)
+    # A fresh packet starts a fresh count: three more NAKs are still resends.
+    for _ in range(MAX_NAKS):
+        pair.ctl.receive_data(NAK_B, 0.3)
+        assert pair.ctl.data_to_send() == frame(ALARM_2)
+    events = pair.ctl.receive_data(NAK_B, 0.4)
+    assert pair.ctl.data_to_send() == RST_B
+    assert [f.reason for f in failures(events)] == [FailReason.NAK_LIMIT]
+    assert pair.ctl.idle
+
+
+def test_corrupt_answers_are_naked_three_times_then_rst() -> None:
+    host = HostLink()
+    host.send_request(AA, Shape.SINGLE, 0.0)
+    host.data_to_send()
+    for i in range(MAX_NAKS):
+        assert host.receive_data(BAD_LRC, 0.5 * (i + 1)) == []
+        assert host.data_to_send() == NAK_B
+        assert host.next_deadline() == pytest.approx(0.5 * (i + 1) + 2.0)
+    events = host.receive_data(BAD_LRC, 2.0)
+    assert host.data_to_send() == RST_B
+    [failed] = failures(events)
+    assert (failed.reason, failed.state) == (FailReason.NAK_LIMIT, State.WAIT_ANSWER)
+    assert host.idle
+
+
+def test_a_good_packet_resets_the_corrupt_count() -> None:
+    pair = Pair()
+    pair.request(AB, Shape.MULTI)
+    pair.ctl.send_answer([ALARM_1, ALARM_2, END], After.DONE, 0.0)
+    pair.ctl.data_to_send()
+    for _ in range(MAX_NAKS):
+        pair.host.receive_data(BAD_LRC, 0.1)
+        assert pair.host.data_to_send() == NAK_B
+    pair.host.receive_data(frame(ALARM_1), 0.1)
+    assert pair.host.data_to_send() == ACK_B
+    for _ in range(MAX_NAKS):
+        pair.host.receive_data(BAD_LRC, 0.2)
+        assert pair.host.data_to_send() == NAK_B
+    assert pair.host.state is State.WAIT_MORE
+
+
+def test_controller_naks_corrupt_requests_then_rsts_the_fourth() -> None:
+    ctl = ControllerLink()
+    for _ in range(MAX_NAKS):
+        assert ctl.receive_data(BAD_LRC, 0.0) == []
+        assert ctl.data_to_send() == NAK_B
+    events = ctl.receive_data(BAD_LRC, 0.0)
+    assert ctl.data_to_send() == RST_B
+    assert events == [Ignored("corrupt packet: RST after 3 NAKs", State.LISTEN)]
+    assert ctl.idle
+    # The count starts again after the RST.
+    ctl.receive_data(BAD_LRC, 0.0)
+    assert ctl.data_to_send() == NAK_B
+
+
+def test_controller_naks_a_corrupt_ack_wait_packet_and_keeps_waiting() -> None:
+    pair = Pair()
+    pair.request(AA)
+    pair.ctl.send_answer([AA_ANSWER], After.DONE, 0.0)
+    pair.ctl.data_to_send()
+    pair.ctl.receive_data(BAD_LRC, 1.0)
+    assert pair.ctl.data_to_send() == NAK_B
+    assert pair.ctl.state is State.WAIT_ACK
+    assert pair.ctl.next_deadline() == pytest.approx(3.0)
+
+
+def test_an_overlong_frame_is_naked_like_a_bad_lrc() -> None:
+    host = HostLink()
+    host.send_request(AA, Shape.SINGLE, 0.0)
+    host.data_to_send()
+    assert host.receive_data(b"\x02" + b"A" * 260 + b"\x03\x41", 0.2) == []
+    assert host.data_to_send() == NAK_B
+    assert host.state is State.WAIT_ANSWER
+
+
+def test_a_frame_cut_short_by_a_new_stx_is_not_naked() -> None:
+    # The new STX starts the next frame; a NAK would make the controller resend a packet the
+    # host may take whole a moment later.
+    host = HostLink()
+    host.send_request(AA, Shape.SINGLE, 0.0)
+    host.data_to_send()
+    events = host.receive_data(bytes.fromhex("02 30 B5") + frame(AA_ANSWER), 0.1)
+    assert events == [
+        Ignored("frame cut short by a new STX", State.WAIT_ANSWER),
+        AnswerReceived(AA_ANSWER, 0x30, final=True),
+        ExchangeComplete(),
+    ]
+    assert host.data_to_send() == ACK_B
+
+
+def test_a_doubled_stx_does_not_run_a_request_twice() -> None:
+    # Regression: a duplicated STX used to be NAKed, so the host resent a request the
+    # controller had already taken whole, and a state-changing command ran twice.
+    pair = Pair()
+    pair.host.send_request(b"\xffBA0", Shape.SINGLE, 0.0)
+    request = pair.host.data_to_send()
+    pair.ctl_events += pair.ctl.receive_data(request[:1] + request, 0.0)
+    assert pair.ctl.data_to_send() == b""
+    pair.answer([OK])
+    host, ctl = pair.take()
+    assert [e for e in ctl if isinstance(e, RequestReceived)] == [RequestReceived(b"\xffBA0")]
+    assert answers(host) == [OK]
+    assert pair.to_ctl == [ACK_B]
+
+
+def test_truncated_frames_do_not_count_towards_the_rst() -> None:
+    ctl = ControllerLink()
+    for _ in range(MAX_NAKS + 2):
+        ctl.receive_data(bytes.fromhex("02 30 31"), 0.0)
+    ctl.receive_data(frame(AA), 0.0)
+    assert ctl.data_to_send() == b""
+    assert ctl.state is State.HANDLING
+
+
+def test_host_abort_sends_rst_and_the_controller_returns_to_listen() -> None:
+    pair = Pair()
+    pair.request(AB, Shape.MULTI)
+    pair.ctl.send_answer([ALARM_1, END], After.DONE, 0.0)
+    events = pair.host.abort(0.1)
+    assert [(f.reason, f.state) for f in failures(events)] == [
+        (FailReason.ABORTED, State.WAIT_ANSWER)
+    ]
+    assert pair.host.data_to_send() == RST_B
+    assert pair.host.idle
+    ctl_events = pair.ctl.receive_data(RST_B, 0.1)
+    assert [(f.reason, f.state) for f in failures(ctl_events)] == [
+        (FailReason.RESET, State.WAIT_ACK)
+    ]
+    assert pair.ctl.idle and pair.ctl.next_deadline() is None
+    assert pair.ctl.data_to_send() == frame(ALARM_1)  # sent before the RST; nothing after
+
+
+def test_controller_abort_resets_the_host() -> None:
+    pair = Pair()
+    pair.request(DB, Shape.TWO_PHASE)
+    pair.answer([DB_FIRST], After.SECOND_PHASE)
+    pair.take()
+    pair.ctl_events += pair.ctl.abort(1.0)
+    pair.pump()
+    host, ctl = pair.take()
+    assert [(f.reason, f.state) for f in failures(ctl)] == [(FailReason.ABORTED, State.WORKING)]
+    assert [(f.reason, f.state) for f in failures(host)] == [(FailReason.RESET, State.WAIT_SECOND)]
+    assert pair.host.idle and pair.ctl.idle
+    # Both ends take the next exchange normally.
+    pair.request(AA)
+    pair.answer([AA_ANSWER])
+    host, ctl = pair.take()
+    assert answers(host) == [AA_ANSWER]
+    assert completes(host) == completes(ctl) == 1
+
+
+def test_rst_inside_an_unfinished_frame_is_data() -> None:
+    # Between STX and ETX every byte is data, so a frame whose end was lost swallows a RST; the
+    # next STX ends that frame (ignored, not NAKed) and the link carries on.
+    host = HostLink()
+    host.send_request(AA, Shape.SINGLE, 0.0)
+    host.data_to_send()
+    assert host.receive_data(bytes.fromhex("02 30 B5") + RST_B, 0.1) == []
+    assert host.state is State.WAIT_ANSWER
+    assert host.decoder.pending == 3
+    events = host.receive_data(frame(AA_ANSWER), 0.2)
+    assert answers(events) == [AA_ANSWER]
+    assert completes(events) == 1
+
+
+def test_abort_while_idle_does_nothing() -> None:
+    for link in (HostLink(), ControllerLink()):
+        assert link.abort(0.0) == [Ignored("stray input", link.state)]
+        assert link.data_to_send() == b""
+
+
+# ===============================================================================================
+# Timeouts
+# ===============================================================================================
+def test_host_reply_timeout_sends_rst_and_nothing_before_the_deadline() -> None:
+    host = HostLink(timeout=1.5)
+    host.send_request(AA, Shape.SINGLE, 10.0)
+    host.data_to_send()
+    assert host.next_deadline() == 11.5
+    for now in (10.0, 10.7, 11.4999):
+        assert host.handle_timeout(now) == []
+        assert host.data_to_send() == b""
+        assert host.state is State.WAIT_ANSWER
+    events = host.handle_timeout(11.5)
+    assert host.data_to_send() == RST_B
+    [failed] = failures(events)
+    assert (failed.reason, failed.state) == (FailReason.TIMEOUT, State.WAIT_ANSWER)
+    assert "1.5 s" in failed.detail
+    assert failed.error is None
+    assert host.idle and host.next_deadline() is None
+    assert host.handle_timeout(100.0) == []
+
+
+def test_host_timeout_mid_multi_resets_the_controller() -> None:
+    pair = Pair(ctl=ControllerLink(timeout=5.0))
+    pair.request(AB, Shape.MULTI)
+    pair.ctl.send_answer([ALARM_1, ALARM_2, END], After.DONE, 0.0)
+    pair.host.receive_data(pair.ctl.data_to_send(), 0.0)
+    pair.ctl.receive_data(pair.host.data_to_send(), 0.0)
+    assert pair.ctl.data_to_send() == frame(ALARM_2)  # lost on the line
+    pair.take()
+    pair.at(1.9)
+    assert pair.take() == ([], [])
+    pair.at(2.0)
+    host, ctl = pair.take()
+    assert [(f.reason, f.state) for f in failures(host)] == [(FailReason.TIMEOUT, State.WAIT_MORE)]
+    assert [(f.reason, f.state) for f in failures(ctl)] == [(FailReason.RESET, State.WAIT_ACK)]
+    assert pair.to_ctl[-1] == RST_B
+    assert pair.ctl.next_deadline() is None
+
+
+def test_upload_wait_ack_times_out() -> None:
+    pair = Pair()
+    pair.request(FB, Shape.UPLOAD)
+    pair.answer([FB_OK], After.UPLOAD)
+    pair.host.send_upload_end(5.0)
+    pair.host.data_to_send()  # the end packet is lost
+    assert pair.host.next_deadline() == 7.0
+    events = pair.host.handle_timeout(7.0)
+    assert [(f.reason, f.state) for f in failures(events)] == [
+        (FailReason.TIMEOUT, State.UPLOAD_WAIT_ACK)
+    ]
+    assert pair.host.data_to_send() == RST_B
+
+
+def test_controller_upload_stall_drops_the_exchange_without_rst() -> None:
+    ctl = ControllerLink()
+    ctl.receive_data(frame(FB), 0.0)
+    ctl.send_answer([FB_OK], After.UPLOAD, 0.0)
+    ctl.data_to_send()
+    assert ctl.next_deadline() == 2.0
+    assert ctl.handle_timeout(1.99) == []
+    events = ctl.handle_timeout(2.0)
+    assert [(f.reason, f.state) for f in failures(events)] == [
+        (FailReason.TIMEOUT, State.UPLOAD_WAIT_PACKET)
+    ]
+    assert ctl.data_to_send() == b""
+    assert ctl.idle
+
+
+def test_controller_resends_an_unacked_answer_three_times_then_drops_it() -> None:
+    ctl = ControllerLink(timeout=2.0)
+    ctl.receive_data(frame(AA), 0.0)
+    ctl.send_answer([AA_ANSWER], After.DONE, 0.0)
+    answer = ctl.data_to_send()
+    for i in range(1, MAX_RESENDS + 1):
+        assert ctl.handle_timeout(2.0 * i - 0.01) == []
+        assert ctl.data_to_send() == b""
+        assert ctl.handle_timeout(2.0 * i) == []
+        assert ctl.data_to_send() == answer
+        assert ctl.next_deadline() == pytest.approx(2.0 * (i + 1))
+    events = ctl.handle_timeout(2.0 * (MAX_RESENDS + 1))
+    assert ctl.data_to_send() == b""  # dropped quietly: no RST, the host times out on its own
+    [failed] = failures(events)
+    assert (failed.reason, failed.state) == (FailReason.TIMEOUT, State.WAIT_ACK)
+    assert ctl.idle and ctl.next_deadline() is None
+
+
+def test_max_resends_is_configurable() -> None:
+    ctl = ControllerLink(max_resends=0)
+    ctl.receive_data(frame(AA), 0.0)
+    ctl.send_answer([AA_ANSWER], After.DONE, 0.0)
+    ctl.data_to_send()
+    assert [f.reason for f in failures(ctl.handle_timeout(2.0))] == [FailReason.TIMEOUT]
+
+
+def test_a_nak_resend_does_not_count_against_the_timeout_resends() -> None:
+    ctl = ControllerLink()
+    ctl.receive_data(frame(AA), 0.0)
+    ctl.send_answer([AA_ANSWER], After.DONE, 0.0)
+    answer = ctl.data_to_send()
+    ctl.receive_data(NAK_B, 0.5)
+    assert ctl.data_to_send() == answer
+    for i in range(MAX_RESENDS):
+        ctl.handle_timeout(ctl.next_deadline() or 0.0)
+        assert ctl.data_to_send() == answer, i
+    assert failures(ctl.handle_timeout(ctl.next_deadline() or 0.0))
+
+
+# ===============================================================================================
+# Lost ACKs, resends and supersession
+# ===============================================================================================
+def test_lost_ack_of_a_single_answer_is_acked_again_while_idle() -> None:
+    pair = Pair()
+    pair.request(AA)
+    pair.ctl.send_answer([AA_ANSWER], After.DONE, 0.0)
+    pair.host.receive_data(pair.ctl.data_to_send(), 0.0)
+    assert pair.host.data_to_send() == ACK_B  # lost on the line
+    assert pair.host.idle
+    pair.take()
+    pair.at(2.0)  # the controller resends; the idle host ACKs the stray packet
+    host, ctl = pair.take()
+    assert host == [Ignored("packet outside an exchange (ACKed)", State.IDLE)]
+    assert ctl == [ExchangeComplete()]
+    assert pair.to_host[-1] == frame(AA_ANSWER)
+    assert pair.to_ctl[-1] == ACK_B
+    assert pair.host.idle and pair.ctl.idle
+
+
+def test_lost_ack_mid_multi_is_acked_again_and_not_delivered_twice() -> None:
+    pair = Pair()
+    pair.request(AB, Shape.MULTI)
+    pair.ctl.send_answer([ALARM_1, ALARM_2, END], After.DONE, 0.0)
+    pair.host_events += pair.host.receive_data(pair.ctl.data_to_send(), 0.0)
+    assert pair.host.data_to_send() == ACK_B  # lost
+    pair.at(2.0)
+    # Resent ALARM_1 was re-ACKed, so ALARM_2 and END follow.
+    host, ctl = pair.take()
+    assert answers(host) == [ALARM_1, ALARM_2, END]
+    assert Ignored("resent answer (ACKed again)", State.WAIT_MORE) in host
+    assert completes(host) == completes(ctl) == 1
+
+
+def test_an_equal_packet_sooner_than_resend_gap_is_new_data() -> None:
+    # Two equal alarms in a row: the second comes right after our ACK, so it is not a resend.
+    pair = Pair()
+    pair.request(AB, Shape.MULTI)
+    pair.answer([ALARM_1, ALARM_1, END])
+    host, _ = pair.take()
+    assert answers(host) == [ALARM_1, ALARM_1, END]
+
+
+def test_resend_gap_is_measured_from_our_ack() -> None:
+    host = HostLink(resend_gap=0.25)
+    host.send_request(AB, Shape.MULTI, 0.0)
+    host.data_to_send()
+    host.receive_data(frame(ALARM_1), 1.0)
+    events = host.receive_data(frame(ALARM_1), 1.2499)
+    assert answers(events) == [ALARM_1]
+    events = host.receive_data(frame(ALARM_1), 1.2499 + 0.25)
+    assert answers(events) == []
+    assert host.data_to_send() == ACK_B * 3
+
+
+def test_lost_ack_of_db_first_answer_keeps_the_second_phase_deadline() -> None:
+    # DB announces 5 s of work. The host's ACK of that first answer is lost, so the controller
+    # resends it after its 2 s timeout; the host ACKs the copy again but must still wait for
+    # the second answer until 5 s + timeout after the first answer, not 2 s after the copy.
+    pair = Pair()
+    pair.request(DB, Shape.TWO_PHASE)
+    pair.ctl.send_answer([b"005"], After.SECOND_PHASE, 0.0)
+    pair.host_events += pair.host.receive_data(pair.ctl.data_to_send(), 0.0)
+    assert pair.host.next_deadline() == pytest.approx(7.0)
+    assert pair.host.data_to_send() == ACK_B  # lost
+    pair.at(2.0)
+    host, ctl = pair.take()
+    assert Ignored("resent answer (ACKed again)", State.WAIT_SECOND) in host
+    assert answers(host) == [b"005"]
+    assert pair.ctl.state is State.WORKING
+    assert pair.host.next_deadline() == pytest.approx(7.0)
+    pair.at(5.0)
+    assert pair.take() == ([], [])
+    pair.now = 5.0
+    pair.answer([OK])
+    host, ctl = pair.take()
+    assert answers(host) == [OK]
+    assert completes(host) == completes(ctl) == 1
+
+
+def test_new_request_while_controller_waits_for_ack_completes_the_old_exchange() -> None:
+    pair = Pair()
+    pair.request(AA)
+    pair.ctl.send_answer([AA_ANSWER], After.DONE, 0.0)
+    pair.host.receive_data(pair.ctl.data_to_send(), 0.0)
+    pair.host.data_to_send()  # ACK lost
+    pair.take()
+    pair.now = 0.1
+    pair.request(b"\xffAC01")
+    _, ctl = pair.take()
+    # The new request shows the host got the answer: the old exchange is done.
+    assert ctl == [ExchangeComplete(), RequestReceived(b"\xffAC01")]
+    assert pair.ctl.state is State.HANDLING
+    assert pair.ctl.next_deadline() is None
+
+
+def test_new_request_mid_multi_supersedes_the_old_exchange() -> None:
+    pair = Pair()
+    pair.request(AB, Shape.MULTI)
+    pair.ctl.send_answer([ALARM_1, END], After.DONE, 0.0)
+    pair.ctl.data_to_send()  # lost
+    pair.take()
+    pair.host.handle_timeout(2.0)  # the host gives up; its RST is lost
+    assert pair.host.data_to_send() == RST_B
+    pair.now = 2.0
+    pair.request(AA)
+    host, ctl = pair.take()
+    assert [type(e) for e in ctl] == [ExchangeFailed, RequestReceived]
+    assert (failures(ctl)[0].reason, failures(ctl)[0].state) == (
+        FailReason.SUPERSEDED,
+        State.WAIT_ACK,
+    )
+    pair.answer([AA_ANSWER])
+    host, ctl = pair.take()
+    assert answers(host) == [AA_ANSWER]
+
+
+def test_new_request_while_working_supersedes_the_second_phase() -> None:
+    pair = Pair()
+    pair.request(DB, Shape.TWO_PHASE)
+    pair.answer([DB_FIRST], After.SECOND_PHASE)
+    pair.host.abort(1.0)
+    pair.host.data_to_send()  # RST lost
+    pair.take()
+    pair.request(AA)
+    _, ctl = pair.take()
+    assert [(f.reason, f.state) for f in failures(ctl)] == [(FailReason.SUPERSEDED, State.WORKING)]
+    assert ctl[-1] == RequestReceived(AA)
+
+
+def test_a_non_request_packet_while_waiting_for_ack_breaks_a_rule() -> None:
+    pair = Pair()
+    pair.request(AA)
+    pair.ctl.send_answer([AA_ANSWER], After.DONE, 0.0)
+    pair.ctl.data_to_send()
+    events = pair.ctl.receive_data(frame(OK), 0.1)
+    [failed] = failures(events)
+    assert failed.reason is FailReason.RULE
+    assert isinstance(failed.error, LinkRuleError)
+    assert failed.error.state == "WAIT_ACK"
+    assert pair.ctl.data_to_send() == RST_B
+
+
+def test_stray_packet_while_host_idle_is_acked() -> None:
+    host = HostLink()
+    events = host.receive_data(frame(b"0stale"), 3.0)
+    assert events == [Ignored("packet outside an exchange (ACKed)", State.IDLE)]
+    assert host.data_to_send() == ACK_B
+    assert host.idle and host.next_deadline() is None
+
+
+def test_stray_control_bytes_while_idle_are_ignored() -> None:
+    for link in (HostLink(), ControllerLink()):
+        events = link.receive_data(ACK_B + NAK_B + RST_B, 0.0)
+        assert events == [Ignored("stray input", link.state)] * 3
+        assert link.data_to_send() == b""
+        assert link.idle
+
+
+# ===============================================================================================
+# Rules the peer breaks, and the application's own mistakes
+# ===============================================================================================
+def test_an_end_packet_in_a_single_exchange_breaks_a_rule() -> None:
+    host = HostLink()
+    host.send_request(AA, Shape.SINGLE, 0.0)
+    host.data_to_send()
+    events = host.receive_data(frame(END), 0.1)
+    assert host.data_to_send().endswith(RST_B)
+    assert host.idle
+    [failed] = failures(events)
+    assert failed.reason is FailReason.RULE
+    assert isinstance(failed.error, LinkRuleError)
+    assert (failed.error.state, failed.error.event) == ("WAIT_ANSWER", "END packet")
+    assert answers(events) == []
+
+
+@pytest.mark.parametrize("data", [b"9", b"", b"\xff", b"A0"])
+def test_an_answer_with_no_known_flag_breaks_a_rule(data: bytes) -> None:
+    host = HostLink()
+    host.send_request(AA, Shape.SINGLE, 0.0)
+    host.data_to_send()
+    events = host.receive_data(frame(data), 0.1)
+    assert host.data_to_send() == RST_B
+    [failed] = failures(events)
+    assert failed.reason is FailReason.RULE
+    assert isinstance(failed.error, LinkRuleError)
+    assert failed.error.state == "WAIT_ANSWER"
+
+
+@pytest.mark.parametrize("data", [b"4", b"9", b""])
+def test_an_upload_reply_that_is_neither_ok_nor_error_breaks_a_rule(data: bytes) -> None:
+    host = HostLink()
+    host.send_request(FB, Shape.UPLOAD, 0.0)
+    host.data_to_send()
+    events = host.receive_data(frame(data), 0.1)
+    assert host.data_to_send() == RST_B
+    assert [f.reason for f in failures(events)] == [FailReason.RULE]
+
+
+def test_an_ok_packet_in_place_of_the_upload_ack_breaks_a_rule() -> None:
+    host = HostLink()
+    host.send_request(FB, Shape.UPLOAD, 0.0)
+    host.receive_data(frame(FB_OK), 0.0)
+    host.send_upload_end(0.0)
+    host.data_to_send()
+    events = host.receive_data(frame(FB_OK), 0.1)
+    assert host.data_to_send() == RST_B
+    assert [f.reason for f in failures(events)] == [FailReason.RULE]
+
+
+@pytest.mark.parametrize("data", [b"5abc", b"1", END + b"x"])
+def test_an_upload_packet_the_controller_cannot_read_breaks_a_rule(data: bytes) -> None:
+    ctl = ControllerLink()
+    ctl.receive_data(frame(FB), 0.0)
+    ctl.send_answer([FB_OK], After.UPLOAD, 0.0)
+    ctl.data_to_send()
+    events = ctl.receive_data(frame(data), 0.1)
+    assert ctl.data_to_send() == RST_B
+    [failed] = failures(events)
+    assert (failed.reason, failed.state) == (FailReason.RULE, State.UPLOAD_WAIT_PACKET)
+
+
+def test_a_second_request_while_the_controller_handles_one_breaks_a_rule() -> None:
+    ctl = ControllerLink()
+    ctl.receive_data(frame(AA), 0.0)
+    events = ctl.receive_data(frame(AB), 0.1)
+    assert ctl.data_to_send() == RST_B
+    [failed] = failures(events)
+    assert (failed.reason, failed.state) == (FailReason.RULE, State.HANDLING)
+    assert isinstance(failed.error, LinkRuleError)
+    assert (failed.error.role, failed.error.event) == ("controller", "packet")
+    with pytest.raises(LinkRuleError):
+        ctl.send_answer([OK], After.DONE, 0.2)
+
+
+def test_app_calls_in_the_wrong_state_raise_and_change_nothing() -> None:
+    host = HostLink()
+    with pytest.raises(LinkRuleError) as info:
+        host.send_upload_line(LINE_1, 0.0)
+    assert (info.value.state, info.value.event) == ("IDLE", "send_upload_line")
+    host.send_request(AA, Shape.SINGLE, 0.0)
+    sent = host.data_to_send()
+    with pytest.raises(LinkRuleError) as info:
+        host.send_request(AB, Shape.SINGLE, 0.5)
+    assert (info.value.state, info.value.event) == ("WAIT_ANSWER", "send_request")
+    assert host.data_to_send() == b""
+    assert host.next_deadline() == 2.0
+    assert host.receive_data(NAK_B, 0.6) == []
+    assert host.data_to_send() == sent  # the first request is still the one in flight
+    ctl = ControllerLink()
+    with pytest.raises(LinkRuleError) as info:
+        ctl.accept_upload(0.0)
+    assert (info.value.role, info.value.state) == ("controller", "LISTEN")
+
+
+def test_send_answer_needs_a_packet() -> None:
+    ctl = ControllerLink()
+    ctl.receive_data(frame(AA), 0.0)
+    with pytest.raises(UsageError, match="packet"):
+        ctl.send_answer([], After.DONE, 0.0)
+    assert ctl.state is State.HANDLING
+
+
+def test_a_bad_answer_packet_is_refused_before_any_is_sent() -> None:
+    ctl = ControllerLink()
+    ctl.receive_data(frame(AB), 0.0)
+    with pytest.raises(PacketTooLongError):
+        ctl.send_answer([ALARM_1, b"0" + b"A" * 300, END], After.DONE, 0.0)
+    assert ctl.data_to_send() == b""
+    assert ctl.state is State.HANDLING
+    with pytest.raises(PacketTooLongError):
+        ctl.send_answer([b"0\x03"], After.DONE, 0.0)
+    assert ctl.data_to_send() == b""
+    ctl.send_answer([ALARM_1, END], After.DONE, 0.0)
+    assert ctl.data_to_send() == frame(ALARM_1)
+
+
+def test_a_bad_request_or_line_is_refused_before_anything_is_sent() -> None:
+    host = HostLink()
+    with pytest.raises(PacketTooLongError):
+        host.send_request(b"\xffFB" + b"x" * 300, Shape.UPLOAD, 0.0)
+    assert host.data_to_send() == b""
+    assert host.idle and host.next_deadline() is None
+    host.send_request(FB, Shape.UPLOAD, 0.0)
+    host.receive_data(frame(FB_OK), 0.0)
+    host.data_to_send()
+    with pytest.raises(PacketTooLongError):
+        host.send_upload_line(b"\x02", 0.0)
+    assert host.data_to_send() == b""
+    assert host.state is State.UPLOAD_READY
+
+
+def test_frame_decoder_misuse_is_not_swallowed() -> None:
+    from robostar.errors import FrameError
+
+    with pytest.raises(FrameError):
+        HostLink().receive_data("02 30 03 30", 0.0)  # type: ignore[arg-type]
+
+
+# ===============================================================================================
+# Known hazards (see the report): each test states what the link should guarantee. They fail
+# today; remove the xfail marker when the link is changed to meet them.
+# ===============================================================================================
+def _send_next_request(host: HostLink, data: bytes, now: float) -> list[LinkEvent]:
+    """The application sends its next request as soon as the link takes it."""
+    try:
+        return host.send_request(data, Shape.SINGLE, now)
+    except LinkRuleError:
+        deadline = host.next_deadline()
+        assert deadline is not None, "the link refuses the request but gives no time to retry"
+        host.handle_timeout(deadline)
+        return host.send_request(data, Shape.SINGLE, deadline)
+
+
+@pytest.mark.xfail(strict=True, reason="hazard: a stale resend crosses the host's RST")
+def test_a_resend_crossing_the_hosts_rst_is_not_the_next_answer() -> None:
+    # The answer to AC is lost. Host and controller time out together (equal 2 s timeouts): the
+    # host sends RST and at once its next request, BA; the controller resends the AC answer.
+    # That copy reaches the host while it waits for BA's answer.
+    host, ctl = HostLink(), ControllerLink()
+    host.send_request(b"\xffAC01", Shape.SINGLE, 0.0)
+    ctl.receive_data(host.data_to_send(), 0.0)
+    ctl.send_answer([b"0 stale position"], After.DONE, 0.0)
+    ctl.data_to_send()  # lost
+    host.handle_timeout(2.0)
+    ctl.handle_timeout(2.0)
+    stale = ctl.data_to_send()
+    assert stale == frame(b"0 stale position")
+    events = _send_next_request(host, b"\xffBA0", 2.0)
+    events += host.receive_data(stale, 2.01)
+    # The stale AC answer must not complete BA: BA has not even reached the controller.
+    assert b"0 stale position" not in answers(events)
+
+
+@pytest.mark.xfail(strict=True, reason="hazard: a NAK for an old frame resends a taken request")
+def test_a_nak_for_an_old_frame_does_not_resend_a_taken_request() -> None:
+    # The LRC byte of the host's AC request is lost, so the controller's decoder takes the
+    # host's RST (sent on timeout) as that LRC, finds it wrong and answers NAK. The NAK reaches
+    # the host after it has sent its next request, BA, which the controller took whole.
+    host, ctl = HostLink(), ControllerLink()
+    host.send_request(b"\xffAC01", Shape.SINGLE, 0.0)
+    ctl.receive_data(host.data_to_send()[:-1], 0.0)  # the LRC byte is lost
+    host.handle_timeout(2.0)
+    _send_next_request(host, b"\xffBA0", 2.0)
+    taken = ctl.receive_data(host.data_to_send(), 2.01)
+    nak = ctl.data_to_send()
+    assert nak == NAK_B
+    if RequestReceived(b"\xffBA0") in taken:
+        ctl.send_answer([OK], After.DONE, 2.01)
+    host.receive_data(nak + ctl.data_to_send(), 2.02)
+    taken += ctl.receive_data(host.data_to_send(), 2.03)
+    # BA (a homing move) must reach the controller's application once.
+    assert taken.count(RequestReceived(b"\xffBA0")) <= 1
+
+
+@pytest.mark.xfail(strict=True, reason="hazard: equal timeouts race a lost ACK's resend")
+def test_a_lost_ack_mid_multi_is_recovered_with_equal_timeouts() -> None:
+    # Both ends use the default 2 s. The host ACKs ALARM_1 10 ms after it was sent; the ACK is
+    # lost. The controller's resend, due 2 s after it first sent ALARM_1 and polled 5 ms late,
+    # reaches the host 10 ms later still: after the host's own 2 s from its ACK ran out.
+    host, ctl = HostLink(), ControllerLink()
+    host.send_request(AB, Shape.MULTI, 0.0)
+    ctl.receive_data(host.data_to_send(), 0.0)
+    ctl.send_answer([ALARM_1, END], After.DONE, 0.0)
+    host.receive_data(ctl.data_to_send(), 0.01)
+    host.data_to_send()  # the ACK is lost
+    ctl.handle_timeout(2.005)
+    resend = ctl.data_to_send()
+    events = host.handle_timeout(2.01)
+    events += host.receive_data(resend, 2.015)
+    ctl.receive_data(host.data_to_send(), 2.025)
+    events += host.receive_data(ctl.data_to_send(), 2.03)
+    assert not failures(events)
+    assert answers(events) == [END]

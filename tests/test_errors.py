@@ -1,0 +1,189 @@
+"""Tests of the exception tree: its shape, the standard bases, messages and error_for_flag."""
+
+from __future__ import annotations
+
+import inspect
+import re
+
+import pytest
+
+import robostar.errors as errors
+from robostar.errors import (
+    ControllerError,
+    FieldError,
+    FrameError,
+    FunctionFailedError,
+    LineError,
+    LinkResetError,
+    LinkRuleError,
+    MalformedAnswerError,
+    NakLimitError,
+    NotSupportedError,
+    OutcomeUnknownError,
+    PacketTooLongError,
+    PortError,
+    ProtocolError,
+    RejectedError,
+    ReplyTimeoutError,
+    RobostarError,
+    UploadIncompleteError,
+    UsageError,
+    error_for_flag,
+)
+
+EXPECTED_PARENT: dict[type[Exception], type[Exception]] = {
+    UsageError: RobostarError,
+    FieldError: UsageError,
+    PacketTooLongError: FieldError,
+    ProtocolError: RobostarError,
+    FrameError: ProtocolError,
+    LinkRuleError: ProtocolError,
+    MalformedAnswerError: ProtocolError,
+    ControllerError: RobostarError,
+    RejectedError: ControllerError,
+    FunctionFailedError: ControllerError,
+    NotSupportedError: ControllerError,
+    LineError: RobostarError,
+    ReplyTimeoutError: LineError,
+    OutcomeUnknownError: LineError,
+    NakLimitError: LineError,
+    LinkResetError: LineError,
+    UploadIncompleteError: LineError,
+    PortError: LineError,
+}
+
+
+def _exception_classes() -> dict[str, type[BaseException]]:
+    return {
+        name: obj
+        for name, obj in vars(errors).items()
+        if inspect.isclass(obj) and issubclass(obj, BaseException)
+    }
+
+
+def _drawn_tree() -> dict[str, str]:
+    """Child -> parent as the module docstring draws the tree."""
+    doc = errors.__doc__ or ""
+    parents: dict[str, str] = {}
+    stack: list[tuple[int, str]] = []
+    for line in doc.splitlines():
+        root = re.fullmatch(r"\s*(RobostarError)\s*", line)
+        if root:
+            stack = [(-1, root.group(1))]
+            continue
+        match = re.match(r"^(\s*(?:│\s*)*)[├└]── (\w+)", line)
+        if not match:
+            continue
+        depth = len(match.group(1))
+        name = match.group(2)
+        while stack and stack[-1][0] >= depth:
+            stack.pop()
+        parents[name] = stack[-1][1]
+        stack.append((depth, name))
+    return parents
+
+
+@pytest.mark.parametrize(
+    ("child", "parent"), list(EXPECTED_PARENT.items()), ids=lambda c: c.__name__
+)
+def test_each_error_sits_under_its_parent(child: type[Exception], parent: type[Exception]) -> None:
+    assert issubclass(child, parent)
+    assert issubclass(child, RobostarError)
+
+
+def test_every_exception_of_the_module_is_in_the_tree() -> None:
+    classes = _exception_classes()
+    assert set(classes) == {c.__name__ for c in EXPECTED_PARENT} | {"RobostarError"}
+    assert set(errors.__all__) == set(classes) | {"error_for_flag"}
+
+
+def test_the_docstring_draws_the_real_tree() -> None:
+    drawn = _drawn_tree()
+    assert drawn == {child.__name__: parent.__name__ for child, parent in EXPECTED_PARENT.items()}
+    for child, parent in EXPECTED_PARENT.items():
+        assert parent in child.__bases__, f"{child.__name__} is drawn under {parent.__name__}"
+
+
+def test_branches_do_not_overlap() -> None:
+    branches = (UsageError, ProtocolError, ControllerError, LineError)
+    for a in branches:
+        for b in branches:
+            if a is not b:
+                assert not issubclass(a, b)
+
+
+def test_standard_bases_so_plain_except_clauses_work() -> None:
+    assert issubclass(ReplyTimeoutError, TimeoutError)
+    assert issubclass(UsageError, ValueError)
+    assert issubclass(FieldError, ValueError)
+    assert issubclass(PortError, OSError)
+    with pytest.raises(TimeoutError):
+        raise ReplyTimeoutError("AA", 2.0)
+    with pytest.raises(ValueError):
+        raise FieldError("CB", "speed", "1001 is out of range 0..1000")
+    with pytest.raises(OSError):
+        raise PortError("cannot open the port")
+    assert not issubclass(ReplyTimeoutError, ValueError)
+    assert not issubclass(ControllerError, ValueError)
+
+
+def test_field_error_names_command_field_and_flag() -> None:
+    error = FieldError("CB", "speed", "1001 is out of range 0..1000")
+    assert (error.command, error.field, error.flag) == ("CB", "speed", 0x31)
+    assert str(error) == "CB speed: 1001 is out of range 0..1000"
+    bare = FieldError("", "packet", "too long", flag=0x32)
+    assert str(bare) == "packet: too long"
+    assert bare.flag == 0x32
+
+
+def test_link_rule_error_names_role_state_and_event() -> None:
+    error = LinkRuleError("host", "WAIT_MORE", "END packet", "single exchange")
+    assert (error.role, error.state, error.event) == ("host", "WAIT_MORE", "END packet")
+    assert str(error) == "host link in state WAIT_MORE cannot take END packet: single exchange"
+    assert str(LinkRuleError("controller", "LISTEN", "TIMEOUT")) == (
+        "controller link in state LISTEN cannot take TIMEOUT"
+    )
+
+
+def test_line_errors_carry_the_command() -> None:
+    timeout = ReplyTimeoutError("AC", 2.0, "after 3 NAKs")
+    assert (timeout.command, timeout.timeout) == ("AC", 2.0)
+    assert str(timeout) == "AC: no answer within 2 s (after 3 NAKs)"
+    unknown = OutcomeUnknownError("BA")
+    assert unknown.command == "BA"
+    assert "may or may not" in str(unknown)
+    naks = NakLimitError("FA", 4)
+    assert (naks.command, naks.naks) == ("FA", 4)
+    assert "4 times" in str(naks)
+    reset = LinkResetError("CC")
+    assert str(reset) == "CC: exchange aborted: RST received"
+    malformed = MalformedAnswerError("AA", "3 status bytes expected", b"0\x80")
+    assert malformed.command == "AA"
+    assert malformed.raw == b"0\x80"
+    assert "raw" in str(malformed)
+
+
+@pytest.mark.parametrize(
+    ("flag", "cls"),
+    [(0x31, RejectedError), (0x32, FunctionFailedError), (0x33, NotSupportedError)],
+)
+def test_error_for_flag_maps_each_error_flag(flag: int, cls: type[ControllerError]) -> None:
+    error = error_for_flag(flag, "CC", "Origin not done")
+    assert type(error) is cls
+    assert error.flag == flag
+    assert (error.command, error.reason) == ("CC", "Origin not done")
+    assert str(error).startswith("CC: ")
+    assert f"0x{flag:02X}" in str(error)
+    assert str(error).endswith(": Origin not done")
+
+
+def test_error_for_flag_without_a_reason() -> None:
+    error = error_for_flag(0x33, "CX")
+    assert error.reason is None
+    assert str(error) == "CX: not supported by this controller (flag 0x33)"
+
+
+@pytest.mark.parametrize("flag", [0x00, 0x30, 0x34, 0x35, 0xFF])
+def test_error_for_flag_refuses_flags_that_are_not_errors(flag: int) -> None:
+    with pytest.raises(ValueError, match=f"0x{flag:02X}"):
+        error_for_flag(flag, "AA")
