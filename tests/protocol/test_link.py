@@ -165,6 +165,16 @@ def _ctl_upload_started(ctl: ControllerLink) -> object:
     return ctl.send_answer([FB_OK], After.UPLOAD, T0)
 
 
+def _host_resync() -> Link:
+    """A host that timed out waiting for an answer: RST sent, quiet for its resync gap."""
+    host = _host(Shape.SINGLE)
+    deadline = host.next_deadline()
+    assert deadline is not None
+    host.handle_timeout(deadline)
+    host.data_to_send()
+    return host
+
+
 SETUPS: dict[tuple[Role, State], Callable[[], Link]] = {
     (Role.HOST, State.IDLE): HostLink,
     (Role.HOST, State.WAIT_ANSWER): lambda: _host(Shape.SINGLE),
@@ -173,6 +183,7 @@ SETUPS: dict[tuple[Role, State], Callable[[], Link]] = {
     (Role.HOST, State.UPLOAD_WAIT_REPLY): lambda: _host(Shape.UPLOAD),
     (Role.HOST, State.UPLOAD_READY): lambda: _host(Shape.UPLOAD, FB_OK),
     (Role.HOST, State.UPLOAD_WAIT_ACK): lambda: _host(Shape.UPLOAD, FB_OK, end=True),
+    (Role.HOST, State.RESYNC): _host_resync,
     (Role.CONTROLLER, State.LISTEN): ControllerLink,
     (Role.CONTROLLER, State.HANDLING): lambda: _ctl(_ctl_request),
     (Role.CONTROLLER, State.WAIT_ACK): lambda: _ctl(
@@ -198,6 +209,7 @@ PACKET_FOR = {
     State.UPLOAD_WAIT_REPLY: FB_OK,
     State.UPLOAD_READY: FB_OK,
     State.UPLOAD_WAIT_ACK: b"\xff2",
+    State.RESYNC: AA_ANSWER,
     State.LISTEN: AA,
     State.HANDLING: AA,
     State.WAIT_ACK: AB,

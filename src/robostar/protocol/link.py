@@ -73,6 +73,7 @@ class State(enum.Enum):
     UPLOAD_WAIT_REPLY = "UPLOAD_WAIT_REPLY"
     UPLOAD_READY = "UPLOAD_READY"
     UPLOAD_WAIT_ACK = "UPLOAD_WAIT_ACK"
+    RESYNC = "RESYNC"
     # controller
     LISTEN = "LISTEN"
     HANDLING = "HANDLING"
@@ -254,6 +255,14 @@ TRANSITIONS: dict[tuple[Role, State, Input], str] = {
     (_H, State.UPLOAD_WAIT_ACK, Input.RST): "_reset_by_peer",
     (_H, State.UPLOAD_WAIT_ACK, Input.TIMEOUT): "_h_timeout",
     (_H, State.UPLOAD_WAIT_ACK, Input.ABORT): "_abort",
+    (_H, State.RESYNC, Input.SEND_REQUEST): "_h_defer_request",
+    (_H, State.RESYNC, Input.PACKET): "_h_stray_packet",
+    (_H, State.RESYNC, Input.CORRUPT): "_ignore",
+    (_H, State.RESYNC, Input.ACK): "_ignore",
+    (_H, State.RESYNC, Input.NAK): "_ignore",
+    (_H, State.RESYNC, Input.RST): "_ignore",
+    (_H, State.RESYNC, Input.ABORT): "_h_drop_deferred",
+    (_H, State.RESYNC, Input.TIMEOUT): "_h_resync_done",
     # ---- controller ----------------------------------------------------------------------
     (_C, State.LISTEN, Input.PACKET): "_c_request",
     (_C, State.LISTEN, Input.CORRUPT): "_nak_corrupt",
@@ -366,7 +375,13 @@ class Link:
 
     @property
     def idle(self) -> bool:
+        """In the idle state: a request may go out at once."""
         return self.state is self._idle
+
+    @property
+    def busy(self) -> bool:
+        """An exchange is open (RESYNC, the quiet gap after an RST, is not an exchange)."""
+        return self.state not in (self._idle, State.RESYNC)
 
     # -- table dispatch --------------------------------------------------------------------
     def _dispatch_frame(self, event: FrameEvent) -> None:
@@ -423,20 +438,25 @@ class Link:
 
     def _fail(self, reason: FailReason, detail: str = "", *, send_rst: bool) -> None:
         state = self.state
+        self._deadline = None
+        self.state = self._idle
         if send_rst:
             self._send_control(RST)
             self.decoder.reset()
-        self._deadline = None
-        self.state = self._idle
+            self._after_rst()
         self._emit(ExchangeFailed(reason, state, detail))
 
     def _rule_broken(self, error: LinkRuleError) -> None:
         state = self.state
-        self._send_control(RST)
-        self.decoder.reset()
         self._deadline = None
         self.state = self._idle
+        self._send_control(RST)
+        self.decoder.reset()
+        self._after_rst()
         self._emit(ExchangeFailed(FailReason.RULE, state, str(error), error))
+
+    def _after_rst(self) -> None:
+        """Called when this end has just sent RST to end an exchange."""
 
     def _ignore(self, data: bytes) -> None:
         self._emit(Ignored("stray input", self.state))
@@ -475,14 +495,32 @@ class Link:
 
 
 class HostLink(Link):
-    """The PC's end: sends requests, ACKs answers, runs FB uploads."""
+    """The PC's end: sends requests, ACKs answers, runs FB uploads.
+
+    Two guards keep a faulty line from making a command run twice or an answer land on the
+    wrong request. After this end sends RST it stays quiet for ``resync_gap`` seconds (state
+    RESYNC): stale packets still in flight are ACKed and dropped, a NAK for an old frame is
+    ignored, and a new request waits until the gap is over. And after ACKing a packet that is
+    not the last, it waits ``timeout + resend_grace`` for the next one, so that a controller
+    resending after its own timeout (our ACK was lost) is heard before we give up.
+    """
 
     role = Role.HOST
     _idle = State.IDLE
 
-    def __init__(self, *, timeout: float = 2.0, resend_gap: float = 0.25):
+    def __init__(
+        self,
+        *,
+        timeout: float = 2.0,
+        resend_gap: float = 0.25,
+        resync_gap: float = 0.25,
+        resend_grace: float = 0.5,
+    ):
         super().__init__(timeout=timeout, resend_gap=resend_gap)
+        self.resync_gap = resync_gap
+        self.resend_grace = resend_grace
         self.shape = Shape.SINGLE
+        self._deferred: tuple[bytes, Shape] | None = None
 
     # -- application calls -----------------------------------------------------------------
     def send_request(self, data: bytes, shape: Shape, now: float) -> list[LinkEvent]:
@@ -513,6 +551,25 @@ class HostLink(Link):
         self.state = State.UPLOAD_WAIT_REPLY if self.shape is Shape.UPLOAD else State.WAIT_ANSWER
         self._arm(self.timeout)
 
+    def _after_rst(self) -> None:
+        if self.resync_gap > 0:
+            self.state = State.RESYNC
+            self._arm(self.resync_gap)
+
+    def _h_defer_request(self, data: bytes) -> None:
+        self._deferred = (data, self._pending_shape)
+
+    def _h_drop_deferred(self, data: bytes) -> None:
+        self._deferred = None
+        self._emit(Ignored("deferred request dropped", self.state))
+
+    def _h_resync_done(self, data: bytes) -> None:
+        self.state = State.IDLE
+        deferred, self._deferred = self._deferred, None
+        if deferred is not None:
+            self._pending_shape = deferred[1]
+            self._h_send_request(deferred[0])
+
     def _h_stray_packet(self, data: bytes) -> None:
         # An intact packet outside an exchange: the controller resending an answer whose ACK
         # was lost. ACK it so that it stops.
@@ -540,7 +597,7 @@ class HostLink(Link):
             self._emit(Ignored("resent answer (ACKed again)", self.state))
             # Never shorten the wait: in WAIT_SECOND it runs to the announced work time.
             if self._deadline is None or self._now + self.timeout > self._deadline:
-                self._arm(self.timeout)
+                self._arm(self.timeout + self.resend_grace)
             return
         try:
             flag = split_answer(data).flag
@@ -564,7 +621,7 @@ class HostLink(Link):
             else:
                 self._emit(AnswerReceived(data, flag, final=False))
                 self.state = State.WAIT_MORE
-                self._arm(self.timeout)
+                self._arm(self.timeout + self.resend_grace)
             return
         if flag == FLAG_END:
             self._rule_broken(
@@ -574,7 +631,7 @@ class HostLink(Link):
         if shape is Shape.TWO_PHASE and self.state is State.WAIT_ANSWER:
             self._emit(AnswerReceived(data, flag, final=False))
             self.state = State.WAIT_SECOND
-            self._arm(_expected_wait(data) + self.timeout)
+            self._arm(_expected_wait(data) + self.timeout + self.resend_grace)
             return
         self._emit(AnswerReceived(data, flag, final=True))
         self._finish(ExchangeComplete())
