@@ -328,8 +328,14 @@ def test_every_missing_pair_breaks_a_rule(key: tuple[Role, State, Input]) -> Non
         return
     events = fire(link, what)
     assert link.data_to_send() == RST_B
-    assert link.idle
-    assert link.next_deadline() is None
+    if role is Role.HOST:
+        # The host's RST starts its quiet gap; fire() gives the input at T0 + 0.5.
+        assert link.state is State.RESYNC
+        assert link.next_deadline() == pytest.approx(T0 + 0.5 + 0.25)
+    else:
+        assert link.idle
+        assert link.next_deadline() is None
+    assert not link.busy
     [failed] = failures(events)
     assert (failed.reason, failed.state) == (FailReason.RULE, state)
     assert isinstance(failed.error, LinkRuleError)
@@ -398,13 +404,15 @@ def test_multi_exchange_each_packet_after_the_previous_ack() -> None:
         AnswerReceived(ALARM_1, 0x30, final=False)
     ]
     assert pair.host.state is State.WAIT_MORE
-    assert pair.host.next_deadline() == pytest.approx(2.1)
+    # timeout + resend_grace after our ACK: a resend after the controller's own timeout is heard
+    assert pair.host.next_deadline() == pytest.approx(0.1 + 2.0 + 0.5)
     assert pair.host.data_to_send() == ACK_B
     assert pair.ctl.receive_data(ACK_B, 0.1) == []
     assert pair.ctl.data_to_send() == frame(ALARM_2)
     assert pair.host.receive_data(frame(ALARM_2), 0.2) == [
         AnswerReceived(ALARM_2, 0x30, final=False)
     ]
+    assert pair.host.next_deadline() == pytest.approx(0.2 + 2.0 + 0.5)
     assert pair.ctl.receive_data(pair.host.data_to_send(), 0.2) == []
     assert pair.ctl.data_to_send() == bytes.fromhex("02 34 03 34")
     assert pair.host.receive_data(frame(END), 0.3) == [
@@ -425,7 +433,7 @@ def test_multi_exchange_of_only_an_end_packet() -> None:
     assert completes(host) == completes(ctl) == 1
 
 
-def test_two_phase_db_waits_the_expected_time_plus_the_timeout() -> None:
+def test_two_phase_db_waits_the_expected_time_plus_the_timeout_and_grace() -> None:
     pair = Pair()
     pair.request(DB, Shape.TWO_PHASE)
     pair.now = 0.5
@@ -436,14 +444,14 @@ def test_two_phase_db_waits_the_expected_time_plus_the_timeout() -> None:
     assert pair.to_host[-1] == frame(DB_FIRST)
     assert pair.to_ctl[-1] == ACK_B
     assert pair.host.state is State.WAIT_SECOND
-    assert pair.host.next_deadline() == pytest.approx(0.5 + 2 + 2.0)
+    assert pair.host.next_deadline() == pytest.approx(0.5 + 2 + 2.0 + 0.5)
     assert pair.ctl.state is State.WORKING
     assert pair.ctl.next_deadline() is None
-    # Nothing happens before the deadline, even past the plain reply timeout.
-    pair.at(4.49)
+    # Nothing happens before the deadline, even past the expected wait plus the reply timeout.
+    pair.at(4.99)
     assert pair.take() == ([], [])
     assert pair.host.state is State.WAIT_SECOND
-    pair.now = 4.4
+    pair.now = 4.9
     pair.answer([OK])
     host, ctl = pair.take()
     assert host == [AnswerReceived(OK, 0x30, final=True), ExchangeComplete()]
@@ -455,24 +463,31 @@ def test_two_phase_deadline_passes_without_a_second_answer() -> None:
     pair = Pair()
     pair.request(DB, Shape.TWO_PHASE)
     pair.answer([b"010"], After.SECOND_PHASE)
-    assert pair.host.next_deadline() == pytest.approx(12.0)
+    assert pair.host.next_deadline() == pytest.approx(10.0 + 2.0 + 0.5)
     pair.take()
-    pair.at(11.99)
+    pair.at(12.49)
     assert pair.take() == ([], [])
-    pair.at(12.0)
+    pair.at(12.5)
     host, ctl = pair.take()
     assert [f.reason for f in failures(host)] == [FailReason.TIMEOUT]
     assert failures(host)[0].state is State.WAIT_SECOND
     assert [f.reason for f in failures(ctl)] == [FailReason.RESET]
     assert pair.to_ctl[-1] == RST_B
+    assert pair.host.state is State.RESYNC
+    assert pair.host.next_deadline() == pytest.approx(12.75)
+    assert pair.ctl.idle
+    pair.at(12.75)
+    assert pair.take() == ([], [])
+    assert pair.host.idle and pair.host.next_deadline() is None
+    assert pair.to_ctl[-1] == RST_B  # the gap's end sends nothing
 
 
 def test_two_phase_ce_takes_two_bare_flags_even_long_apart() -> None:
     pair = Pair()
     pair.request(b"\xffCE0", Shape.TWO_PHASE)
     pair.answer([OK], After.SECOND_PHASE)
-    # CE's first answer has no wait: the deadline is the plain timeout.
-    assert pair.host.next_deadline() == pytest.approx(2.0)
+    # CE's first answer has no wait: the deadline is the plain timeout and the resend grace.
+    assert pair.host.next_deadline() == pytest.approx(2.0 + 0.5)
     pair.now = 1.5  # well past resend_gap: an equal packet is still the second answer
     pair.answer([OK])
     host, ctl = pair.take()
@@ -577,12 +592,20 @@ def test_fb_new_request_mid_upload_supersedes_it() -> None:
     pair.request(FB, Shape.UPLOAD)
     pair.answer([FB_OK], After.UPLOAD)
     pair.take()
-    # The host gave up (its RST was lost) and asks something else.
+    # The host gave up (its RST was lost) and asks something else; the request waits for the
+    # end of the host's quiet gap.
     pair.host.abort(0.0)
-    pair.host.data_to_send()
+    assert pair.host.data_to_send() == RST_B
     pair.take()
     pair.request(AA)
+    assert pair.take() == ([], [])
+    assert pair.host.state is State.RESYNC
+    pair.at(0.2499)
+    assert pair.take() == ([], [])
+    assert pair.to_ctl == [frame(FB)]
+    pair.at(0.25)
     _, ctl = pair.take()
+    assert pair.to_ctl[-1] == frame(AA)
     assert [type(e) for e in ctl] == [ExchangeFailed, RequestReceived]
     assert failures(ctl)[0].reason is FailReason.SUPERSEDED
     assert pair.ctl.state is State.HANDLING
@@ -669,6 +692,9 @@ def test_three_naks_are_resends_and_the_fourth_is_rst() -> None:
     assert host.data_to_send() == RST_B
     [failed] = failures(events)
     assert (failed.reason, failed.state) == (FailReason.NAK_LIMIT, State.WAIT_ANSWER)
+    assert host.state is State.RESYNC and host.next_deadline() == pytest.approx(0.65)
+    assert host.handle_timeout(0.65) == []
+    assert host.data_to_send() == b""
     assert host.idle and host.next_deadline() is None
 
 
@@ -704,7 +730,7 @@ def test_corrupt_answers_are_naked_three_times_then_rst() -> None:
     assert host.data_to_send() == RST_B
     [failed] = failures(events)
     assert (failed.reason, failed.state) == (FailReason.NAK_LIMIT, State.WAIT_ANSWER)
-    assert host.idle
+    assert host.state is State.RESYNC and host.next_deadline() == pytest.approx(2.25)
 
 
 def test_a_good_packet_resets_the_corrupt_count() -> None:
@@ -805,7 +831,8 @@ def test_host_abort_sends_rst_and_the_controller_returns_to_listen() -> None:
         (FailReason.ABORTED, State.WAIT_ANSWER)
     ]
     assert pair.host.data_to_send() == RST_B
-    assert pair.host.idle
+    assert pair.host.state is State.RESYNC
+    assert pair.host.next_deadline() == pytest.approx(0.35)
     ctl_events = pair.ctl.receive_data(RST_B, 0.1)
     assert [(f.reason, f.state) for f in failures(ctl_events)] == [
         (FailReason.RESET, State.WAIT_ACK)
@@ -871,6 +898,11 @@ def test_host_reply_timeout_sends_rst_and_nothing_before_the_deadline() -> None:
     assert (failed.reason, failed.state) == (FailReason.TIMEOUT, State.WAIT_ANSWER)
     assert "1.5 s" in failed.detail
     assert failed.error is None
+    assert host.state is State.RESYNC and host.next_deadline() == 11.75
+    assert host.handle_timeout(11.7499) == []
+    assert host.state is State.RESYNC
+    assert host.handle_timeout(11.75) == []
+    assert host.data_to_send() == b""
     assert host.idle and host.next_deadline() is None
     assert host.handle_timeout(100.0) == []
 
@@ -883,14 +915,17 @@ def test_host_timeout_mid_multi_resets_the_controller() -> None:
     pair.ctl.receive_data(pair.host.data_to_send(), 0.0)
     assert pair.ctl.data_to_send() == frame(ALARM_2)  # lost on the line
     pair.take()
-    pair.at(1.9)
+    assert pair.host.next_deadline() == pytest.approx(2.5)
+    pair.at(2.49)
     assert pair.take() == ([], [])
-    pair.at(2.0)
+    pair.at(2.5)
     host, ctl = pair.take()
     assert [(f.reason, f.state) for f in failures(host)] == [(FailReason.TIMEOUT, State.WAIT_MORE)]
     assert [(f.reason, f.state) for f in failures(ctl)] == [(FailReason.RESET, State.WAIT_ACK)]
     assert pair.to_ctl[-1] == RST_B
     assert pair.ctl.next_deadline() is None
+    assert pair.host.state is State.RESYNC
+    assert pair.host.next_deadline() == pytest.approx(2.75)
 
 
 def test_upload_wait_ack_times_out() -> None:
@@ -905,6 +940,8 @@ def test_upload_wait_ack_times_out() -> None:
         (FailReason.TIMEOUT, State.UPLOAD_WAIT_ACK)
     ]
     assert pair.host.data_to_send() == RST_B
+    assert pair.host.state is State.RESYNC
+    assert pair.host.next_deadline() == pytest.approx(7.25)
 
 
 def test_controller_upload_stall_drops_the_exchange_without_rst() -> None:
@@ -1019,19 +1056,20 @@ def test_resend_gap_is_measured_from_our_ack() -> None:
 def test_lost_ack_of_db_first_answer_keeps_the_second_phase_deadline() -> None:
     # DB announces 5 s of work. The host's ACK of that first answer is lost, so the controller
     # resends it after its 2 s timeout; the host ACKs the copy again but must still wait for
-    # the second answer until 5 s + timeout after the first answer, not 2 s after the copy.
+    # the second answer until 5 s + timeout + grace after the first answer, not 2.5 s after the
+    # copy.
     pair = Pair()
     pair.request(DB, Shape.TWO_PHASE)
     pair.ctl.send_answer([b"005"], After.SECOND_PHASE, 0.0)
     pair.host_events += pair.host.receive_data(pair.ctl.data_to_send(), 0.0)
-    assert pair.host.next_deadline() == pytest.approx(7.0)
+    assert pair.host.next_deadline() == pytest.approx(7.5)
     assert pair.host.data_to_send() == ACK_B  # lost
     pair.at(2.0)
     host, ctl = pair.take()
     assert Ignored("resent answer (ACKed again)", State.WAIT_SECOND) in host
     assert answers(host) == [b"005"]
     assert pair.ctl.state is State.WORKING
-    assert pair.host.next_deadline() == pytest.approx(7.0)
+    assert pair.host.next_deadline() == pytest.approx(7.5)
     pair.at(5.0)
     assert pair.take() == ([], [])
     pair.now = 5.0
@@ -1058,16 +1096,23 @@ def test_new_request_while_controller_waits_for_ack_completes_the_old_exchange()
 
 
 def test_new_request_mid_multi_supersedes_the_old_exchange() -> None:
-    pair = Pair()
+    # A slow controller (5 s): its first resend is not due before the host's next request.
+    pair = Pair(ctl=ControllerLink(timeout=5.0))
     pair.request(AB, Shape.MULTI)
     pair.ctl.send_answer([ALARM_1, END], After.DONE, 0.0)
     pair.ctl.data_to_send()  # lost
     pair.take()
-    pair.host.handle_timeout(2.0)  # the host gives up; its RST is lost
+    pair.host_events += pair.host.handle_timeout(2.0)  # the host gives up; its RST is lost
     assert pair.host.data_to_send() == RST_B
+    assert pair.host.state is State.RESYNC
+    pair.take()
     pair.now = 2.0
-    pair.request(AA)
+    pair.request(AA)  # deferred to the end of the host's quiet gap
+    assert pair.take() == ([], [])
+    pair.at(2.25)
     host, ctl = pair.take()
+    assert host == []
+    assert pair.to_ctl[-1] == frame(AA)
     assert [type(e) for e in ctl] == [ExchangeFailed, RequestReceived]
     assert (failures(ctl)[0].reason, failures(ctl)[0].state) == (
         FailReason.SUPERSEDED,
@@ -1083,10 +1128,16 @@ def test_new_request_while_working_supersedes_the_second_phase() -> None:
     pair.request(DB, Shape.TWO_PHASE)
     pair.answer([DB_FIRST], After.SECOND_PHASE)
     pair.host.abort(1.0)
-    pair.host.data_to_send()  # RST lost
+    assert pair.host.data_to_send() == RST_B  # lost
     pair.take()
-    pair.request(AA)
+    pair.now = 1.0
+    pair.request(AA)  # deferred to the end of the host's quiet gap
+    assert pair.take() == ([], [])
+    pair.at(1.2499)
+    assert pair.take() == ([], [])
+    pair.at(1.25)
     _, ctl = pair.take()
+    assert pair.to_ctl[-1] == frame(AA)
     assert [(f.reason, f.state) for f in failures(ctl)] == [(FailReason.SUPERSEDED, State.WORKING)]
     assert ctl[-1] == RequestReceived(AA)
 
@@ -1128,8 +1179,8 @@ def test_an_end_packet_in_a_single_exchange_breaks_a_rule() -> None:
     host.send_request(AA, Shape.SINGLE, 0.0)
     host.data_to_send()
     events = host.receive_data(frame(END), 0.1)
-    assert host.data_to_send().endswith(RST_B)
-    assert host.idle
+    assert host.data_to_send() == ACK_B + RST_B  # the packet was intact; its place is wrong
+    assert host.state is State.RESYNC and host.next_deadline() == pytest.approx(0.35)
     [failed] = failures(events)
     assert failed.reason is FailReason.RULE
     assert isinstance(failed.error, LinkRuleError)
@@ -1144,6 +1195,7 @@ def test_an_answer_with_no_known_flag_breaks_a_rule(data: bytes) -> None:
     host.data_to_send()
     events = host.receive_data(frame(data), 0.1)
     assert host.data_to_send() == RST_B
+    assert host.state is State.RESYNC and host.next_deadline() == pytest.approx(0.35)
     [failed] = failures(events)
     assert failed.reason is FailReason.RULE
     assert isinstance(failed.error, LinkRuleError)
@@ -1261,21 +1313,9 @@ def test_frame_decoder_misuse_is_not_swallowed() -> None:
 
 
 # ===============================================================================================
-# Known hazards (see the report): each test states what the link should guarantee. They fail
-# today; remove the xfail marker when the link is changed to meet them.
+# Hazards a faulty line used to cause: each test states what the link guarantees. The
+# application sends its next request at once after a failed exchange; the link takes it.
 # ===============================================================================================
-def _send_next_request(host: HostLink, data: bytes, now: float) -> list[LinkEvent]:
-    """The application sends its next request as soon as the link takes it."""
-    try:
-        return host.send_request(data, Shape.SINGLE, now)
-    except LinkRuleError:
-        deadline = host.next_deadline()
-        assert deadline is not None, "the link refuses the request but gives no time to retry"
-        host.handle_timeout(deadline)
-        return host.send_request(data, Shape.SINGLE, deadline)
-
-
-@pytest.mark.xfail(strict=True, reason="hazard: a stale resend crosses the host's RST")
 def test_a_resend_crossing_the_hosts_rst_is_not_the_next_answer() -> None:
     # The answer to AC is lost. Host and controller time out together (equal 2 s timeouts): the
     # host sends RST and at once its next request, BA; the controller resends the AC answer.
@@ -1289,13 +1329,12 @@ def test_a_resend_crossing_the_hosts_rst_is_not_the_next_answer() -> None:
     ctl.handle_timeout(2.0)
     stale = ctl.data_to_send()
     assert stale == frame(b"0 stale position")
-    events = _send_next_request(host, b"\xffBA0", 2.0)
+    events = host.send_request(b"\xffBA0", Shape.SINGLE, 2.0)
     events += host.receive_data(stale, 2.01)
     # The stale AC answer must not complete BA: BA has not even reached the controller.
     assert b"0 stale position" not in answers(events)
 
 
-@pytest.mark.xfail(strict=True, reason="hazard: a NAK for an old frame resends a taken request")
 def test_a_nak_for_an_old_frame_does_not_resend_a_taken_request() -> None:
     # The LRC byte of the host's AC request is lost, so the controller's decoder takes the
     # host's RST (sent on timeout) as that LRC, finds it wrong and answers NAK. The NAK reaches
@@ -1304,7 +1343,7 @@ def test_a_nak_for_an_old_frame_does_not_resend_a_taken_request() -> None:
     host.send_request(b"\xffAC01", Shape.SINGLE, 0.0)
     ctl.receive_data(host.data_to_send()[:-1], 0.0)  # the LRC byte is lost
     host.handle_timeout(2.0)
-    _send_next_request(host, b"\xffBA0", 2.0)
+    host.send_request(b"\xffBA0", Shape.SINGLE, 2.0)
     taken = ctl.receive_data(host.data_to_send(), 2.01)
     nak = ctl.data_to_send()
     assert nak == NAK_B
@@ -1316,7 +1355,6 @@ def test_a_nak_for_an_old_frame_does_not_resend_a_taken_request() -> None:
     assert taken.count(RequestReceived(b"\xffBA0")) <= 1
 
 
-@pytest.mark.xfail(strict=True, reason="hazard: equal timeouts race a lost ACK's resend")
 def test_a_lost_ack_mid_multi_is_recovered_with_equal_timeouts() -> None:
     # Both ends use the default 2 s. The host ACKs ALARM_1 10 ms after it was sent; the ACK is
     # lost. The controller's resend, due 2 s after it first sent ALARM_1 and polled 5 ms late,
@@ -1335,3 +1373,539 @@ def test_a_lost_ack_mid_multi_is_recovered_with_equal_timeouts() -> None:
     events += host.receive_data(ctl.data_to_send(), 2.03)
     assert not failures(events)
     assert answers(events) == [END]
+
+
+# ===============================================================================================
+# RESYNC: the host's quiet gap after its own RST
+# ===============================================================================================
+GAP = 0.25
+"""HostLink's default resync_gap."""
+AC = b"\xffAC01"
+BA = b"\xffBA0"
+STALE = b"0 stale position"
+RST_HANDLERS = {
+    "_h_timeout": FailReason.TIMEOUT,
+    "_abort": FailReason.ABORTED,
+    "_resend": FailReason.NAK_LIMIT,
+    "_nak_corrupt": FailReason.NAK_LIMIT,
+}
+"""The host's table handlers that can end an exchange with its own RST, and why they do."""
+
+
+def _host_rst_entries() -> list[tuple[State, Input]]:
+    return sorted(
+        (
+            (state, what)
+            for (role, state, what), name in TRANSITIONS.items()
+            if role is Role.HOST and name in RST_HANDLERS
+        ),
+        key=lambda k: (k[0].value, k[1].value),
+    )
+
+
+LAST_SENT = {
+    State.WAIT_ANSWER: frame(b"\xffXX"),
+    State.UPLOAD_WAIT_REPLY: frame(FB),
+    State.UPLOAD_WAIT_ACK: frame(END),
+}
+"""The frame a host built by SETUPS sent last in each state that resends on NAK."""
+
+
+def _drive_to_rst(link: Link, state: State, what: Input) -> tuple[list[LinkEvent], float]:
+    """Give ``link`` the input of one entry until it sends RST; the events and the time then."""
+    now = T0 + 0.5
+    if what is Input.TIMEOUT:
+        deadline = link.next_deadline()
+        assert deadline is not None
+        return link.handle_timeout(deadline), deadline
+    if what is Input.ABORT:
+        return link.abort(now), now
+    # Three NAKs are resends, three corrupt packets are NAKed; the fourth is the RST.
+    one, reply = (NAK_B, LAST_SENT[state]) if what is Input.NAK else (BAD_LRC, NAK_B)
+    for _ in range(MAX_NAKS):
+        assert link.receive_data(one, now) == []
+        assert link.data_to_send() == reply
+    return link.receive_data(one, now), now
+
+
+def test_the_host_rst_entries_are_the_ones_expected() -> None:
+    waiting = {
+        State.WAIT_ANSWER,
+        State.WAIT_MORE,
+        State.WAIT_SECOND,
+        State.UPLOAD_WAIT_REPLY,
+        State.UPLOAD_WAIT_ACK,
+    }
+    sending = {State.WAIT_ANSWER, State.UPLOAD_WAIT_REPLY, State.UPLOAD_WAIT_ACK}
+    assert set(_host_rst_entries()) == (
+        {(state, Input.TIMEOUT) for state in waiting}
+        | {(state, Input.CORRUPT) for state in waiting}
+        | {(state, Input.ABORT) for state in waiting | {State.UPLOAD_READY}}
+        | {(state, Input.NAK) for state in sending}
+    )
+
+
+@pytest.mark.parametrize("key", _host_rst_entries(), ids=str)
+def test_every_rst_the_host_sends_starts_the_gap(key: tuple[State, Input]) -> None:
+    state, what = key
+    link = SETUPS[(Role.HOST, state)]()
+    events, now = _drive_to_rst(link, state, what)
+    # ExchangeFailed comes at once, not at the end of the gap.
+    [failed] = failures(events)
+    assert (failed.reason, failed.state) == (RST_HANDLERS[TRANSITIONS[(Role.HOST, *key)]], state)
+    assert events == [failed]
+    assert link.data_to_send() == RST_B
+    assert link.state is State.RESYNC
+    assert link.next_deadline() == pytest.approx(now + GAP)
+    assert not link.idle and not link.busy
+    assert link.decoder.pending == 0
+    assert link.handle_timeout(now + GAP) == []
+    assert link.data_to_send() == b""
+    assert link.idle and link.next_deadline() is None
+
+
+@pytest.mark.parametrize("key", _host_rst_entries(), ids=str)
+def test_without_a_gap_every_rst_the_host_sends_returns_it_to_idle(
+    key: tuple[State, Input],
+) -> None:
+    state, what = key
+    link = SETUPS[(Role.HOST, state)]()
+    assert isinstance(link, HostLink)
+    link.resync_gap = 0
+    events, now = _drive_to_rst(link, state, what)
+    assert [(f.reason, f.state) for f in failures(events)] == [
+        (RST_HANDLERS[TRANSITIONS[(Role.HOST, *key)]], state)
+    ]
+    assert link.data_to_send() == RST_B
+    assert link.idle and link.next_deadline() is None
+    assert link.send_request(AA, Shape.SINGLE, now) == []
+    assert link.data_to_send() == frame(AA)
+    assert link.state is State.WAIT_ANSWER
+    assert link.next_deadline() == pytest.approx(now + 2.0)
+
+
+def test_a_rule_broken_by_the_controller_starts_the_gap_too() -> None:
+    host = HostLink()
+    host.send_request(FB, Shape.UPLOAD, 0.0)
+    host.receive_data(frame(FB_OK), 0.0)
+    host.data_to_send()
+    events = host.receive_data(frame(FB_OK), 0.5)  # a packet where the host owes a line
+    assert [(f.reason, f.state) for f in failures(events)] == [
+        (FailReason.RULE, State.UPLOAD_READY)
+    ]
+    assert host.data_to_send() == RST_B
+    assert host.state is State.RESYNC and host.next_deadline() == pytest.approx(0.75)
+
+
+@pytest.mark.parametrize(
+    "state",
+    [
+        state
+        for (role, state, what), name in TRANSITIONS.items()
+        if role is Role.HOST and name == "_reset_by_peer"
+    ],
+)
+def test_an_rst_from_the_controller_needs_no_gap(state: State) -> None:
+    # The controller ended the exchange: nothing of it is left in flight towards the host.
+    link = SETUPS[(Role.HOST, state)]()
+    events = link.receive_data(RST_B, T0 + 0.5)
+    assert [(f.reason, f.state) for f in failures(events)] == [(FailReason.RESET, state)]
+    assert link.data_to_send() == b""
+    assert link.idle and link.next_deadline() is None
+    assert isinstance(link, HostLink)
+    link.send_request(AA, Shape.SINGLE, T0 + 0.5)
+    assert link.data_to_send() == frame(AA)
+
+
+def _resynced(**options: float) -> HostLink:
+    """A host whose AA request (sent at 0.0) timed out at 2.0: RST sent, quiet until 2.25."""
+    host = HostLink(**options)
+    host.send_request(AA, Shape.SINGLE, 0.0)
+    host.data_to_send()
+    assert [f.reason for f in failures(host.handle_timeout(2.0))] == [FailReason.TIMEOUT]
+    assert host.data_to_send() == RST_B
+    assert host.state is State.RESYNC and host.next_deadline() == 2.0 + host.resync_gap
+    return host
+
+
+@pytest.mark.parametrize("data", [AA_ANSWER, ALARM_1, END, b"2", b"9", FB_OK])
+def test_resync_acks_and_drops_any_intact_packet(data: bytes) -> None:
+    host = _resynced()
+    assert host.receive_data(frame(data), 2.1) == [
+        Ignored("packet outside an exchange (ACKed)", State.RESYNC)
+    ]
+    assert host.data_to_send() == ACK_B
+    assert host.state is State.RESYNC and host.next_deadline() == 2.0 + GAP
+
+
+@pytest.mark.parametrize(
+    "data", [BAD_LRC, ACK_B, NAK_B, RST_B], ids=["corrupt", "ACK", "NAK", "RST"]
+)
+def test_resync_ignores_corrupt_packets_and_control_bytes(data: bytes) -> None:
+    host = _resynced()
+    assert host.receive_data(data, 2.1) == [Ignored("stray input", State.RESYNC)]
+    assert host.data_to_send() == b""
+    assert host.state is State.RESYNC and host.next_deadline() == 2.0 + GAP
+
+
+def test_resync_neither_naks_nor_rsts_a_run_of_corrupt_packets() -> None:
+    host = _resynced()
+    events = host.receive_data(BAD_LRC * (MAX_NAKS + 2), 2.1)
+    assert events == [Ignored("stray input", State.RESYNC)] * (MAX_NAKS + 2)
+    assert host.data_to_send() == b""
+    assert host.state is State.RESYNC
+
+
+def test_the_gap_with_nothing_deferred_ends_in_idle_and_nothing_before_it() -> None:
+    host = _resynced()
+    assert host.handle_timeout(2.2499) == []
+    assert (host.state, host.next_deadline()) == (State.RESYNC, 2.0 + GAP)
+    assert host.handle_timeout(2.25) == []
+    assert host.data_to_send() == b""
+    assert host.idle and host.next_deadline() is None
+    # After the gap a request goes out at once.
+    assert host.send_request(AB, Shape.MULTI, 2.3) == []
+    assert host.data_to_send() == frame(AB)
+    assert host.state is State.WAIT_ANSWER and host.next_deadline() == pytest.approx(4.3)
+
+
+@pytest.mark.parametrize(
+    ("shape", "data", "waiting"),
+    [
+        (Shape.SINGLE, AA, State.WAIT_ANSWER),
+        (Shape.MULTI, AB, State.WAIT_ANSWER),
+        (Shape.TWO_PHASE, DB, State.WAIT_ANSWER),
+        (Shape.UPLOAD, FB, State.UPLOAD_WAIT_REPLY),
+    ],
+)
+@pytest.mark.parametrize("polled", [2.25, 2.4])
+def test_a_request_during_the_gap_goes_out_exactly_at_its_end(
+    shape: Shape, data: bytes, waiting: State, polled: float
+) -> None:
+    host = _resynced()
+    assert host.send_request(data, shape, 2.1) == []
+    assert host.data_to_send() == b""
+    assert host.state is State.RESYNC and host.next_deadline() == 2.0 + GAP
+    assert not host.busy and not host.idle
+    assert host.handle_timeout(2.2499) == []
+    assert host.data_to_send() == b""
+    assert host.state is State.RESYNC
+    # The driver polls at the deadline or later; the reply timer runs from the sending.
+    assert host.handle_timeout(polled) == []
+    assert host.data_to_send() == frame(data)
+    assert host.state is waiting and host.shape is shape
+    assert host.next_deadline() == pytest.approx(polled + 2.0)
+    assert host.busy
+    assert host.handle_timeout(polled + 1.0) == []
+    assert host.data_to_send() == b""
+
+
+def test_a_deferred_request_runs_a_whole_exchange() -> None:
+    pair = Pair()
+    pair.request(AC)  # the controller never answers
+    pair.at(2.0)
+    host, ctl = pair.take()
+    assert [(f.reason, f.state) for f in failures(host)] == [
+        (FailReason.TIMEOUT, State.WAIT_ANSWER)
+    ]
+    assert [(f.reason, f.state) for f in failures(ctl)] == [(FailReason.RESET, State.HANDLING)]
+    pair.request(AB, Shape.MULTI)
+    assert pair.take() == ([], [])
+    assert pair.to_ctl == [frame(AC), RST_B]
+    pair.at(2.25)
+    pair.answer([ALARM_1, ALARM_2, END])
+    host, ctl = pair.take()
+    assert host == [
+        AnswerReceived(ALARM_1, 0x30, final=False),
+        AnswerReceived(ALARM_2, 0x30, final=False),
+        AnswerReceived(END, 0x34, final=True),
+        ExchangeComplete(),
+    ]
+    assert ctl == [RequestReceived(AB), ExchangeComplete()]
+    assert pair.to_ctl == [frame(AC), RST_B, frame(AB), ACK_B, ACK_B, ACK_B]
+    assert pair.host.idle and pair.ctl.idle
+
+
+def test_a_stale_answer_in_the_gap_is_acked_and_never_delivered() -> None:
+    # AC's answer is lost; the controller's resend crosses the host's RST on the line and
+    # arrives while the host's next request, BA, waits for the end of the gap.
+    host, ctl = HostLink(), ControllerLink()
+    host.send_request(AC, Shape.SINGLE, 0.0)
+    assert ctl.receive_data(host.data_to_send(), 0.0) == [RequestReceived(AC)]
+    ctl.send_answer([STALE], After.DONE, 0.05)
+    ctl.data_to_send()  # lost
+    events = host.handle_timeout(2.0)
+    rst = host.data_to_send()
+    assert rst == RST_B
+    events += host.send_request(BA, Shape.SINGLE, 2.0)
+    assert host.data_to_send() == b""
+    assert ctl.handle_timeout(2.05) == []
+    stale = ctl.data_to_send()
+    assert stale == frame(STALE)
+    events += host.receive_data(stale, 2.06)
+    ack = host.data_to_send()
+    assert ack == ACK_B
+    assert ctl.receive_data(rst + ack, 2.07) == [
+        ExchangeFailed(FailReason.RESET, State.WAIT_ACK, "RST received"),
+        Ignored("stray input", State.LISTEN),
+    ]
+    events += host.handle_timeout(2.25)
+    request = host.data_to_send()
+    assert request == frame(BA)
+    assert ctl.receive_data(request, 2.26) == [RequestReceived(BA)]
+    ctl.send_answer([OK], After.DONE, 2.3)
+    events += host.receive_data(ctl.data_to_send(), 2.31)
+    assert events == [
+        ExchangeFailed(FailReason.TIMEOUT, State.WAIT_ANSWER, "no answer within 2 s"),
+        Ignored("packet outside an exchange (ACKed)", State.RESYNC),
+        AnswerReceived(OK, 0x30, final=True),
+        ExchangeComplete(),
+    ]
+    assert ctl.receive_data(host.data_to_send(), 2.32) == [ExchangeComplete()]
+
+
+def _late_nak_scenario(
+    host: HostLink,
+) -> tuple[list[LinkEvent], list[tuple[float, bytes]], list[LinkEvent]]:
+    """AC's LRC byte is lost, so the controller takes the host's RST (sent on timeout) as that
+    LRC and NAKs; the host asks for BA at once. The controller answers each request as soon as
+    it takes it. Returns the host's events, its writes (time, bytes) and the controller's
+    events."""
+    ctl = ControllerLink()
+    host.send_request(AC, Shape.SINGLE, 0.0)
+    assert ctl.receive_data(host.data_to_send()[:-1], 0.0) == []
+    events = host.handle_timeout(2.0)
+    events += host.send_request(BA, Shape.SINGLE, 2.0)
+    writes: list[tuple[float, bytes]] = []
+    ctl_events: list[LinkEvent] = []
+    for now in (2.0, 2.05, 2.1, 2.25, 2.3, 2.35):
+        events += host.handle_timeout(now)
+        write = host.data_to_send()
+        if write:
+            writes.append((now, write))
+        ctl_events += ctl.receive_data(write, now)
+        if ctl.state is State.HANDLING:
+            ctl_events += ctl.send_answer([OK], After.DONE, now)
+        events += host.receive_data(ctl.data_to_send(), now)
+    assert host.idle and ctl.idle
+    return events, writes, ctl_events
+
+
+def test_a_late_nak_in_the_gap_causes_no_resend() -> None:
+    events, writes, ctl_events = _late_nak_scenario(HostLink())
+    assert writes == [(2.0, RST_B), (2.25, frame(BA)), (2.3, ACK_B)]
+    assert ctl_events == [RequestReceived(BA), ExchangeComplete()]
+    assert events == [
+        ExchangeFailed(FailReason.TIMEOUT, State.WAIT_ANSWER, "no answer within 2 s"),
+        Ignored("stray input", State.RESYNC),  # the NAK
+        AnswerReceived(OK, 0x30, final=True),
+        ExchangeComplete(),
+    ]
+
+
+def test_without_a_gap_the_late_nak_resends_the_next_request() -> None:
+    # resync_gap=0 is the old link: BA goes out with the RST and the NAK meant for AC resends
+    # it, so BA reaches the controller's application twice. This is what the gap prevents.
+    events, writes, ctl_events = _late_nak_scenario(HostLink(resync_gap=0))
+    assert writes == [(2.0, RST_B + frame(BA)), (2.05, frame(BA) + ACK_B), (2.1, ACK_B)]
+    assert ctl_events == [
+        RequestReceived(BA),
+        ExchangeComplete(),  # the resent BA supersedes the answered one...
+        RequestReceived(BA),  # ...and runs again
+        Ignored("stray input", State.HANDLING),
+        ExchangeComplete(),
+    ]
+    assert events == [
+        ExchangeFailed(FailReason.TIMEOUT, State.WAIT_ANSWER, "no answer within 2 s"),
+        AnswerReceived(OK, 0x30, final=True),
+        ExchangeComplete(),
+        Ignored("packet outside an exchange (ACKed)", State.IDLE),
+    ]
+
+
+def test_without_a_gap_a_stale_answer_lands_on_the_next_request() -> None:
+    # resync_gap=0 is the old link: the controller's resend of AC's answer, crossing the RST,
+    # is taken as the answer to BA. This is what the gap prevents.
+    host, ctl = HostLink(resync_gap=0), ControllerLink()
+    host.send_request(AC, Shape.SINGLE, 0.0)
+    ctl.receive_data(host.data_to_send(), 0.0)
+    ctl.send_answer([STALE], After.DONE, 0.05)
+    ctl.data_to_send()  # lost
+    host.handle_timeout(2.0)
+    assert host.idle and host.next_deadline() is None
+    assert host.send_request(BA, Shape.SINGLE, 2.0) == []
+    assert host.data_to_send() == RST_B + frame(BA)
+    ctl.handle_timeout(2.05)
+    assert host.receive_data(ctl.data_to_send(), 2.06) == [
+        AnswerReceived(STALE, 0x30, final=True),
+        ExchangeComplete(),
+    ]
+
+
+def test_abort_in_the_gap_drops_the_deferred_request() -> None:
+    host = _resynced()
+    host.send_request(AB, Shape.MULTI, 2.1)
+    # The application started an exchange; it learns that it ended, and how.
+    assert host.abort(2.2) == [
+        ExchangeFailed(FailReason.ABORTED, State.RESYNC, "aborted before it was sent")
+    ]
+    assert host.data_to_send() == b""
+    assert host.state is State.RESYNC and host.next_deadline() == 2.0 + GAP
+    assert host.handle_timeout(2.25) == []
+    assert host.data_to_send() == b""
+    assert host.idle and host.next_deadline() is None
+    # The next request is a fresh one and goes out at once.
+    host.send_request(AA, Shape.SINGLE, 2.3)
+    assert host.data_to_send() == frame(AA)
+    assert host.shape is Shape.SINGLE
+
+
+def test_abort_in_the_gap_with_nothing_deferred_keeps_the_gap() -> None:
+    host = _resynced()
+    assert host.abort(2.1) == []  # no exchange was open: nothing to report
+    assert host.data_to_send() == b""  # no second RST
+    assert host.state is State.RESYNC and host.next_deadline() == 2.0 + GAP
+
+
+@pytest.mark.parametrize("call", ["send_upload_line", "send_upload_end"])
+def test_upload_calls_in_the_gap_raise_and_change_nothing(call: str) -> None:
+    host = _resynced()
+    with pytest.raises(LinkRuleError) as info:
+        if call == "send_upload_line":
+            host.send_upload_line(LINE_1, 2.1)
+        else:
+            host.send_upload_end(2.1)
+    assert (info.value.state, info.value.event) == ("RESYNC", call)
+    assert host.data_to_send() == b""
+    assert host.state is State.RESYNC and host.next_deadline() == 2.0 + GAP
+
+
+def test_resync_gap_is_configurable() -> None:
+    host = _resynced(resync_gap=1.5)
+    assert host.next_deadline() == 3.5
+    host.send_request(BA, Shape.SINGLE, 2.0)
+    assert host.handle_timeout(3.4999) == []
+    assert host.data_to_send() == b""
+    host.handle_timeout(3.5)
+    assert host.data_to_send() == frame(BA)
+
+
+# ===============================================================================================
+# After ACKing a packet that is not the last, the host waits timeout + resend_grace
+# ===============================================================================================
+@pytest.mark.parametrize("grace", [0.0, 1.0])
+def test_resend_grace_is_added_after_each_non_final_packet(grace: float) -> None:
+    multi = HostLink(resend_grace=grace)
+    multi.send_request(AB, Shape.MULTI, 0.0)
+    multi.receive_data(frame(ALARM_1), 0.3)
+    assert multi.next_deadline() == pytest.approx(0.3 + 2.0 + grace)
+    two_phase = HostLink(resend_grace=grace)
+    two_phase.send_request(DB, Shape.TWO_PHASE, 0.0)
+    two_phase.receive_data(frame(b"007"), 0.3)
+    assert two_phase.next_deadline() == pytest.approx(0.3 + 7.0 + 2.0 + grace)
+    # The first packet of an exchange is awaited for the plain timeout.
+    single = HostLink(resend_grace=grace)
+    single.send_request(AA, Shape.SINGLE, 0.3)
+    assert single.next_deadline() == pytest.approx(0.3 + 2.0)
+
+
+def test_a_re_ack_mid_multi_waits_timeout_and_grace_after_the_copy() -> None:
+    host = HostLink()
+    host.send_request(AB, Shape.MULTI, 0.0)
+    host.data_to_send()
+    assert answers(host.receive_data(frame(ALARM_1), 0.01)) == [ALARM_1]
+    assert host.next_deadline() == pytest.approx(2.51)
+    assert host.data_to_send() == ACK_B  # lost
+    assert host.receive_data(frame(ALARM_1), 2.3) == [
+        Ignored("resent answer (ACKed again)", State.WAIT_MORE)
+    ]
+    assert host.data_to_send() == ACK_B
+    assert host.state is State.WAIT_MORE
+    assert host.next_deadline() == pytest.approx(2.3 + 2.0 + 0.5)
+
+
+def test_the_grace_hears_a_resend_polled_late_after_the_hosts_plain_timeout() -> None:
+    # As the hazard test above, but the controller's resend arrives 0.49 s after the host's
+    # plain 2 s from its ACK: inside the grace.
+    pair = Pair()
+    pair.request(AB, Shape.MULTI)
+    pair.ctl.send_answer([ALARM_1, END], After.DONE, 0.0)
+    pair.host_events += pair.host.receive_data(pair.ctl.data_to_send(), 0.0)
+    assert pair.host.data_to_send() == ACK_B  # lost
+    pair.at(2.49)
+    host, ctl = pair.take()
+    assert host == [
+        AnswerReceived(ALARM_1, 0x30, final=False),
+        Ignored("resent answer (ACKed again)", State.WAIT_MORE),
+        AnswerReceived(END, 0x34, final=True),
+        ExchangeComplete(),
+    ]
+    assert ctl == [RequestReceived(AB), ExchangeComplete()]
+
+
+# ===============================================================================================
+# busy and idle
+# ===============================================================================================
+@pytest.mark.parametrize("key", list(SETUPS), ids=str)
+def test_busy_is_an_open_exchange_and_idle_the_idle_state(key: tuple[Role, State]) -> None:
+    link = SETUPS[key]()
+    _, state = key
+    assert link.busy is (state not in (State.IDLE, State.LISTEN, State.RESYNC))
+    assert link.idle is (state in (State.IDLE, State.LISTEN))
+
+
+def test_busy_through_a_failed_exchange_and_its_gap() -> None:
+    host = HostLink()
+    assert not host.busy and host.idle
+    host.send_request(AA, Shape.SINGLE, 0.0)
+    assert host.busy and not host.idle
+    host.handle_timeout(2.0)
+    assert not host.busy and not host.idle  # RESYNC
+    host.send_request(AB, Shape.SINGLE, 2.1)
+    assert not host.busy and not host.idle  # deferred: still the gap
+    host.handle_timeout(2.25)
+    assert host.busy and not host.idle
+    host.receive_data(frame(OK), 2.3)
+    assert not host.busy and host.idle
+
+
+# ===============================================================================================
+# Bugs in the new design (see the report): these fail against the current link.py
+# ===============================================================================================
+def test_a_bad_request_in_the_gap_is_refused_at_once() -> None:
+    # Every other state refuses a packet that cannot be framed in send_request itself, before
+    # anything is sent; in the gap it is stored and raises later, out of handle_timeout.
+    host = _resynced()
+    with pytest.raises(PacketTooLongError):
+        host.send_request(b"\xffFB" + b"x" * 300, Shape.UPLOAD, 2.1)
+    assert host.handle_timeout(2.25) == []
+    assert host.data_to_send() == b""
+    assert host.idle and host.next_deadline() is None
+
+
+def test_a_second_request_in_the_gap_does_not_silently_replace_the_first() -> None:
+    # A request already deferred is an exchange the application is waiting on; a second
+    # send_request must be refused as it is in every state with a request in flight, not drop
+    # the first without an event.
+    host = _resynced()
+    assert host.send_request(AB, Shape.MULTI, 2.1) == []
+    with pytest.raises(LinkRuleError) as info:
+        host.send_request(AA, Shape.SINGLE, 2.2)
+    assert (info.value.state, info.value.event) == ("RESYNC", "send_request")
+    assert host.handle_timeout(2.25) == []
+    assert host.data_to_send() == frame(AB)
+    assert host.shape is Shape.MULTI
+
+
+def test_a_re_ack_in_the_second_phase_waits_timeout_and_grace_after_the_copy() -> None:
+    # DB announces 2 s: deadline 0 + 2 + 2 + 0.5 = 4.5. The ACK is lost and the copy comes at
+    # 2.2; after ACKing it again the host must wait timeout + grace from then (4.7), as after any
+    # non-final packet. The link compares against now + timeout only and keeps 4.5.
+    host = HostLink()
+    host.send_request(DB, Shape.TWO_PHASE, 0.0)
+    host.receive_data(frame(DB_FIRST), 0.0)
+    assert host.next_deadline() == pytest.approx(4.5)
+    assert host.receive_data(frame(DB_FIRST), 2.2) == [
+        Ignored("resent answer (ACKed again)", State.WAIT_SECOND)
+    ]
+    assert host.next_deadline() == pytest.approx(2.2 + 2.0 + 0.5)

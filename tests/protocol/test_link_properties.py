@@ -3,12 +3,14 @@
 Hypothesis picks a run of exchanges of every shape and single-byte faults (drop, corrupt,
 duplicate) on either direction of the line; the clock is advanced by hand from one event to the
 next. Whatever the faults, no exception comes out of the links, every exchange ends by the
-host's deadline, and after the faults stop a clean exchange succeeds. Where the faults are ones
-the protocol can see (:data:`DETECTABLE`), a completed exchange delivered exactly the packets
-the controller sent for it, and no request reached the controller's application twice.
+host's deadline (the host is no longer busy, though it may be in its RESYNC gap), and after the
+faults stop a clean exchange succeeds. Where the faults are ones the protocol can see
+(:data:`DETECTABLE`), a completed exchange delivered exactly the packets the controller sent for
+it, and no request reached the controller's application twice.
 
-That last property needs the host to stay quiet for a moment after a failed exchange
-(:data:`PAUSE`); without the pause, see the hazard tests at the end of ``test_link.py``.
+The host application sends its next request as soon as the previous exchange has ended, failed
+or not: it is the link's own RESYNC gap that keeps a late NAK or resend of the old exchange off
+the new one.
 """
 
 from __future__ import annotations
@@ -48,9 +50,6 @@ WORK_TIME = 0.3
 """Seconds the controller works between a two-phase exchange's first and second answer."""
 WAIT_DIGITS = b"01"
 """The two-phase first answer's expected wait, seconds (DB/DC style)."""
-PAUSE = 0.25
-"""Seconds the host application waits after a failed exchange before its next request, so
-that a late NAK or resend of the old exchange lands while the host is idle."""
 REFUSAL = b"\xff2"
 """The controller's answer to an FB packet it refuses."""
 MAX_STEPS = 20_000
@@ -244,19 +243,17 @@ class Outcome:
 
 @dataclass
 class HostApp:
-    """Runs the planned exchanges one after another, as a client would."""
+    """Runs the planned exchanges one after another, as a client would: each request goes to
+    the link as soon as the previous exchange has ended (the link defers it during its gap)."""
 
     link: HostLink
     plan: tuple[Exchange, ...]
-    guard: float = 0.0
-    """Seconds to stay quiet after a failed exchange before the next request."""
     outcomes: list[Outcome] = field(default_factory=list)
     current: Exchange | None = None
     delivered: list[bytes] = field(default_factory=list)
     ready: int = 0
     lines_sent: int = 0
     started: float = 0.0
-    quiet_until: float = 0.0
 
     def take(self, events: list[LinkEvent], now: float) -> None:
         for event in events:
@@ -273,17 +270,12 @@ class HostApp:
                     Outcome(self.current, completed, self.delivered, self.ready, self.started, now)
                 )
                 self.current = None
-                if not completed:
-                    self.quiet_until = now + self.guard
 
     def act(self, now: float) -> None:
         link = self.link
-        if (
-            self.current is None
-            and link.idle
-            and len(self.outcomes) < len(self.plan)
-            and now >= self.quiet_until
-        ):
+        if self.current is None and len(self.outcomes) < len(self.plan):
+            # The last exchange has ended, so the link has none open.
+            assert not link.busy, link.state
             self.current = self.plan[len(self.outcomes)]
             self.delivered, self.ready, self.lines_sent, self.started = [], 0, 0, now
             self.take(link.send_request(self.current.request, self.current.shape, now), now)
@@ -299,10 +291,6 @@ class HostApp:
     @property
     def done(self) -> bool:
         return len(self.outcomes) == len(self.plan) and self.current is None
-
-    def next_due(self) -> float | None:
-        waiting = self.current is None and not self.done and self.quiet_until > 0
-        return self.quiet_until if waiting else None
 
 
 @dataclass
@@ -398,13 +386,12 @@ class Run:
         down_faults: dict[int, Fault],
         model: FaultModel,
         latency: float,
-        guard: float = 0.0,
     ) -> Run:
         host, ctl = HostLink(), ControllerLink()
         return cls(
             host,
             ctl,
-            HostApp(host, plan, guard),
+            HostApp(host, plan),
             ControllerApp(ctl, {e.request: e for e in plan}),
             Line(up_faults, model, latency),
             Line(down_faults, model, latency),
@@ -423,6 +410,22 @@ class Run:
         else:
             assert self.host.next_deadline() is None, self.host.state
 
+    def check_deadline_passed(self, state: State, now: float) -> None:
+        host, current = self.host, self.host_app.current
+        if state is not State.RESYNC:
+            # Every exchange ends by the host's deadline: nothing keeps it open past it.
+            assert not host.busy, host.state
+        elif current is None:
+            # The end of the gap, with no request deferred: idle.
+            assert host.idle, host.state
+        else:
+            # The end of the gap: the deferred request has gone out, with a fresh timer.
+            waiting = (
+                State.UPLOAD_WAIT_REPLY if current.shape is Shape.UPLOAD else State.WAIT_ANSWER
+            )
+            assert host.state is waiting, host.state
+            assert host.next_deadline() == now + host.timeout
+
     def step(self) -> bool:
         """Act, write, advance the clock to the next event and deliver; False when quiet."""
         self.guarded(lambda: self.host_app.act(self.now))
@@ -438,7 +441,6 @@ class Run:
                 self.host.next_deadline(),
                 self.ctl.next_deadline(),
                 self.ctl_app.next_due(),
-                self.host_app.next_due(),
             )
             if t is not None
         ]
@@ -451,10 +453,10 @@ class Run:
             lambda: self.host_app.take(self.host.receive_data(self.down.arrived(now), now), now)
         )
         deadline = self.host.next_deadline()
+        state = self.host.state
         self.guarded(lambda: self.host_app.take(self.host.handle_timeout(now), now))
         if deadline is not None and now >= deadline:
-            # Every exchange ends by the host's deadline: nothing keeps it open past it.
-            assert self.host.idle, self.host.state
+            self.check_deadline_passed(state, now)
         self.guarded(lambda: self.ctl_app.take(self.ctl.handle_timeout(now)))
         return True
 
@@ -529,7 +531,7 @@ def test_detectable_faults_deliver_each_answer_exactly_once(
     case: tuple[tuple[Exchange, ...], dict[int, Fault], dict[int, Fault], float],
 ) -> None:
     plan, up_faults, down_faults, latency = case
-    run = Run.build(plan, up_faults, down_faults, DETECTABLE, latency, PAUSE)
+    run = Run.build(plan, up_faults, down_faults, DETECTABLE, latency)
     run.run()
     assert run.errors == []
     check_exactly_once(run)

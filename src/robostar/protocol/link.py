@@ -431,6 +431,12 @@ class Link:
     def _arm(self, seconds: float) -> None:
         self._deadline = self._now + seconds
 
+    def _extend(self, seconds: float) -> None:
+        """Wait at least ``seconds`` from now, never less than already armed (a two-phase wait
+        must not be cut short by a resend or a corrupt frame)."""
+        if self._deadline is None or self._now + seconds > self._deadline:
+            self._deadline = self._now + seconds
+
     def _finish(self, event: LinkEvent) -> None:
         self._deadline = None
         self.state = self._idle
@@ -473,7 +479,7 @@ class Link:
             return
         self._send_control(NAK)
         if self.state is not self._idle and self._deadline is not None:
-            self._arm(self.timeout)
+            self._extend(self.timeout)
 
     def _resend(self, data: bytes) -> None:
         self._naks += 1
@@ -557,11 +563,15 @@ class HostLink(Link):
             self._arm(self.resync_gap)
 
     def _h_defer_request(self, data: bytes) -> None:
+        if self._deferred is not None:
+            raise LinkRuleError("host", self.state.value, Input.SEND_REQUEST.value, "one waits")
+        encode_packet(data)  # a bad request is refused now, not when the gap ends
         self._deferred = (data, self._pending_shape)
 
     def _h_drop_deferred(self, data: bytes) -> None:
-        self._deferred = None
-        self._emit(Ignored("deferred request dropped", self.state))
+        if self._deferred is not None:
+            self._deferred = None
+            self._emit(ExchangeFailed(FailReason.ABORTED, self.state, "aborted before it was sent"))
 
     def _h_resync_done(self, data: bytes) -> None:
         self.state = State.IDLE
@@ -596,8 +606,7 @@ class HostLink(Link):
             self._ack(data)
             self._emit(Ignored("resent answer (ACKed again)", self.state))
             # Never shorten the wait: in WAIT_SECOND it runs to the announced work time.
-            if self._deadline is None or self._now + self.timeout > self._deadline:
-                self._arm(self.timeout + self.resend_grace)
+            self._extend(self.timeout + self.resend_grace)
             return
         try:
             flag = split_answer(data).flag
