@@ -1,0 +1,159 @@
+"""The asyncio client: :class:`AsyncClient`. Safe to share between tasks of one event loop."""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import weakref
+from types import TracebackType
+from typing import Any, Self, TypeVar
+
+from robostar.client.binding import AsyncRunner
+from robostar.client.core import ClientBase, LineIO, Settings, Write, check_keepalive
+from robostar.client.driver import command_plan
+from robostar.client.exchange import Outcome, Progress
+from robostar.client.jog import AsyncJog, jog_start
+from robostar.client.locks import AsyncPriorityLock
+from robostar.client.plan import Call, Effect, Plan, run_plan_async
+from robostar.client.trace import TraceTarget
+from robostar.commands.base import Command
+from robostar.errors import RobostarError, UsageError
+from robostar.transport import AsyncTransport, async_transport_for_url
+from robostar.types import JogDirection, MotionType
+
+__all__ = ["AsyncClient"]
+
+R = TypeVar("R")
+
+
+class AsyncClient(ClientBase, AsyncRunner):
+    """The asyncio twin of :class:`~robostar.client.sync.Client`: the same methods, awaited.
+
+    The line opens on ``await client.connect()``, on ``async with``, or on the first call.
+    ``port`` and the options are those of the blocking client, or an
+    :class:`~robostar.transport.AsyncTransport`.
+    """
+
+    transport: AsyncTransport
+
+    def __init__(
+        self,
+        port: str | AsyncTransport,
+        *,
+        timeout: float = 2.0,
+        retries: int = 1,
+        trace: TraceTarget | None = None,
+        reconnect: bool = False,
+        poll_interval: float = 0.1,
+        keepalive: float = 0.2,
+        **transport_options: Any,
+    ) -> None:
+        settings = Settings(timeout, retries, poll_interval, keepalive, reconnect)
+        if isinstance(port, AsyncTransport):
+            if transport_options:
+                raise UsageError("transport options go with a URL, not with a Transport")
+            self.transport = port
+        else:
+            self.transport = async_transport_for_url(port, **transport_options)
+        self._setup(settings, trace)
+        self._lock = AsyncPriorityLock()
+        self._jogs: weakref.WeakSet[AsyncJog] = weakref.WeakSet()
+
+    # -- life cycle ------------------------------------------------------------------------
+    async def _open(self) -> None:
+        if not self.transport.is_open:
+            await self.transport.open()
+        self._opened = True
+        self._link = self._new_link()
+
+    async def connect(self) -> None:
+        """Open the line now (PortError if it cannot be opened)."""
+        async with self._lock.hold():
+            await self._ensure_open()
+
+    async def _ensure_open(self) -> None:
+        if not self.transport.is_open:
+            self._check_may_open()
+            await self._open()
+
+    async def close(self) -> None:
+        """Stop running jogs (BG), close the line and the trace file."""
+        if self._closed:
+            return
+        for jog in list(self._jogs):
+            with contextlib.suppress(RobostarError):
+                await jog.stop()
+        async with self._lock.hold(urgent=True):
+            self._closed = True
+            await self.transport.close()
+            self._close_trace()
+
+    async def __aenter__(self) -> Self:
+        await self.connect()
+        return self
+
+    async def __aexit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        await self.close()
+
+    # -- running plans ---------------------------------------------------------------------
+    async def _run(self, plan: Plan[R]) -> R:
+        return await run_plan_async(plan, self._perform)
+
+    async def _perform(self, effect: Effect) -> object:
+        if isinstance(effect, Call):
+            return await self._call(effect.command, effect.progress)
+        await asyncio.sleep(effect.seconds)
+        return None
+
+    async def _call(
+        self, command: Command[R], progress: Progress | None = None, *, urgent: bool = False
+    ) -> R:
+        async with self._lock.hold(urgent=urgent):
+            await self._ensure_open()
+
+            async def exchange(request: Command[Any]) -> Outcome:
+                steps = self._exchange_plan(request, progress if request is command else None)
+                return await run_plan_async(steps, self._line_io)
+
+            return await run_plan_async(command_plan(command, self._policy), exchange)
+
+    # -- the line -------------------------------------------------------------------------
+    async def _line_io(self, step: LineIO) -> bytes | None:
+        if isinstance(step, Write):
+            self._traced_sent(step.data)
+            await self.transport.write(step.data)
+            return None
+        data = await self.transport.read(step.timeout)
+        if data:
+            self._traced_received(data)
+        return data
+
+    # -- jogging ---------------------------------------------------------------------------
+    def jog(
+        self,
+        channel: int,
+        axis: int,
+        direction: str | int | JogDirection,
+        *,
+        motion: str | MotionType = "joint",
+        interval: float | None = None,
+    ) -> AsyncJog:
+        """BE, BF every ``interval`` s from a task, BG at the end.
+
+        Use as ``async with client.jog(1, axis=1, direction="+"): ...``.
+        """
+        start = jog_start(channel, axis, direction, motion)
+        every = (
+            self.settings.keepalive if interval is None else check_keepalive(interval, "interval")
+        )
+        jog = AsyncJog(self._urgent_call, start, every)
+        self._jogs.add(jog)
+        return jog
+
+    async def _urgent_call(self, command: Command[None]) -> None:
+        await self._call(command, urgent=True)

@@ -1,0 +1,182 @@
+"""What the blocking and the asyncio client share: settings, the link, the trace, and the
+exchange loop itself, as a plan of line I/O steps (:class:`Write`, :class:`Read`) that each
+client performs its own way."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Generator
+from dataclasses import dataclass
+from typing import Any
+
+from robostar.client import args
+from robostar.client.driver import Policy
+from robostar.client.exchange import Exchange, Outcome, Progress
+from robostar.client.surface import Operations
+from robostar.client.trace import TraceTarget, WireTrace
+from robostar.commands.base import Command
+from robostar.errors import OutcomeUnknownError, PortError, UsageError
+from robostar.protocol.link import HostLink
+from robostar.transport import AsyncTransport, Transport
+
+__all__ = ["KEEPALIVE_LIMIT", "ClientBase", "LineIO", "Read", "Settings", "Write"]
+
+KEEPALIVE_LIMIT = 0.5
+"""The manual: a jog stops unless a BF comes within 500 ms of the last one."""
+DRAIN_READS = 32
+"""Most reads of stray input before a request (a line that never stops talking is noise)."""
+
+
+@dataclass(frozen=True, slots=True)
+class Settings:
+    """A client's settings, checked.
+
+    ``timeout``: reply timeout (s); ``retries``: resends of a read-only command after a lost
+    answer; ``poll_interval``: status reads while waiting (s); ``keepalive``: BF interval of a
+    jog (s, under 0.5); ``reconnect``: reopen a lost line on the next call.
+    """
+
+    timeout: float = 2.0
+    retries: int = 1
+    poll_interval: float = 0.1
+    keepalive: float = 0.2
+    reconnect: bool = False
+
+    def __post_init__(self) -> None:
+        args.positive(self.timeout, "timeout")
+        args.non_negative_int(self.retries, "retries")
+        args.positive(self.poll_interval, "poll_interval")
+        check_keepalive(self.keepalive, "keepalive")
+        args.boolean(self.reconnect, "reconnect")
+
+
+def check_keepalive(value: object, name: str) -> float:
+    interval = args.positive(value, name)
+    if interval >= KEEPALIVE_LIMIT:
+        raise UsageError(f"{name}: {interval:g} s is not under the 0.5 s the controller allows")
+    return interval
+
+
+@dataclass(frozen=True, slots=True)
+class Write:
+    """Write ``data`` to the line (and the trace)."""
+
+    data: bytes
+
+
+@dataclass(frozen=True, slots=True)
+class Read:
+    """Read what arrives within ``timeout`` seconds; the bytes (maybe ``b""``) are sent back."""
+
+    timeout: float
+
+
+LineIO = Write | Read
+
+
+class ClientBase(Operations):
+    """The state both clients keep; the subclasses add the waiting."""
+
+    transport: Transport | AsyncTransport
+
+    @property
+    def url(self) -> str:
+        return self.transport.url
+
+    def __repr__(self) -> str:
+        return f"<{type(self).__name__} {self.url}>"
+
+    def _setup(self, settings: Settings, trace: TraceTarget | None) -> None:
+        self.settings = settings
+        self.poll_interval = settings.poll_interval
+        self._policy = Policy(settings.timeout, settings.retries)
+        self._trace = WireTrace(trace) if trace is not None else None
+        self._link = self._new_link()
+        self._opened = False
+        self._closed = False
+
+    @property
+    def timeout(self) -> float:
+        return self.settings.timeout
+
+    def _new_link(self) -> HostLink:
+        return HostLink(timeout=self.settings.timeout)
+
+    def _check_may_open(self) -> None:
+        """Raise unless the line may be (re)opened now: not closed, and not lost without
+        ``reconnect``."""
+        if self._closed:
+            raise PortError(f"{self.url}: the client is closed")
+        if self._opened and not self.settings.reconnect:
+            raise PortError(
+                f"{self.url}: the connection was lost; make a new client, or pass "
+                "reconnect=True to reopen it on the next call"
+            )
+
+    def _line_lost(self, command: Command[Any], exc: PortError, written: bool) -> Exception:
+        """The error for a line lost mid-exchange: the request may have reached the controller,
+        so a state-changing command's outcome is unknown."""
+        self._link = self._new_link()
+        if written and command.CHANGES_STATE:
+            return OutcomeUnknownError(command.CODE, f"the line was lost: {exc}")
+        return exc
+
+    # -- one exchange, as line I/O steps ---------------------------------------------------------
+    def _exchange_plan(
+        self, command: Command[Any], progress: Progress | None
+    ) -> Generator[LineIO, Any, Outcome]:
+        """Run one exchange of ``command`` on the link; the client performs the steps."""
+        exchange = Exchange(self._link, command, progress)
+        written = False
+        try:
+            yield from self._drain_plan()
+            exchange.start(time.monotonic())
+            while True:
+                out = exchange.output()
+                if out:
+                    written = True
+                    yield Write(out)
+                if exchange.done:
+                    return exchange.outcome()
+                data = yield Read(max(exchange.deadline() - time.monotonic(), 0.0))
+                if data:
+                    exchange.receive(data, time.monotonic())
+                else:
+                    exchange.tick(time.monotonic())
+        except PortError as exc:
+            raise self._line_lost(command, exc, written) from exc
+        except GeneratorExit:
+            raise
+        except BaseException:
+            # Ctrl-C, a cancelled task, a callback's error: end the exchange with RST.
+            exchange.abort(time.monotonic())
+            out = exchange.output()
+            if out and self.transport.is_open:
+                try:
+                    yield Write(out)
+                except PortError:
+                    self._link = self._new_link()
+            raise
+
+    def _drain_plan(self) -> Generator[LineIO, Any, None]:
+        """Hand stray input to the idle link before a request (it ACKs a resent answer)."""
+        for _ in range(DRAIN_READS):
+            data = yield Read(0.0)
+            if not data:
+                break
+            self._link.receive_data(data, time.monotonic())
+        out = self._link.data_to_send()
+        if out:
+            yield Write(out)
+
+    def _traced_sent(self, data: bytes) -> None:
+        if self._trace is not None:
+            self._trace.sent(data)
+
+    def _traced_received(self, data: bytes) -> None:
+        if self._trace is not None:
+            self._trace.received(data)
+
+    def _close_trace(self) -> None:
+        if self._trace is not None:
+            self._trace.close()

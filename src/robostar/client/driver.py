@@ -1,0 +1,163 @@
+"""The rules for running one command, as a plan of exchanges shared by both clients.
+
+:func:`command_plan` yields each command to exchange and receives its :class:`Outcome`:
+
+- an error flag raises its :class:`~robostar.errors.ControllerError`; on 0x32 the controller's
+  reason is read with KD at once (the next exchange) and put in ``reason``;
+- a lost answer is retried for read-only commands (``retries`` times) and becomes
+  :class:`~robostar.errors.OutcomeUnknownError` for state-changing ones, which are never resent;
+- RST, NAK exhaustion and broken link rules become their typed errors;
+- an FB upload is verified or raises :class:`~robostar.errors.UploadIncompleteError`; when only
+  its final ACK is lost, the file is read back with FA and compared before success is declared.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Generator
+from dataclasses import dataclass
+from typing import Any, TypeVar, cast
+
+from robostar.client.exchange import Outcome
+from robostar.commands.base import Command
+from robostar.commands.files import DownloadFile, UploadFile, parse_point_line
+from robostar.commands.system import ReadLastError
+from robostar.errors import (
+    ControllerError,
+    FieldError,
+    LinkResetError,
+    LinkRuleError,
+    MalformedAnswerError,
+    NakLimitError,
+    OutcomeUnknownError,
+    ReplyTimeoutError,
+    RobostarError,
+    UploadIncompleteError,
+    error_for_flag,
+)
+from robostar.protocol.fields import FLAG_FAILED
+from robostar.protocol.link import MAX_NAKS, ExchangeFailed, FailReason, State
+from robostar.types import CoordSystem, JobFile, PointFile
+
+__all__ = ["CommandPlan", "Policy", "command_plan", "decode", "upload_matches"]
+
+T = TypeVar("T")
+CommandPlan = Generator[Command[Any], Outcome, T]
+"""Yields a command to exchange, receives how the exchange ended, returns the result."""
+
+
+@dataclass(frozen=True, slots=True)
+class Policy:
+    """``timeout``: the reply timeout (s); ``retries``: resends of a read-only command."""
+
+    timeout: float = 2.0
+    retries: int = 1
+
+
+def decode(command: Command[T], packets: tuple[bytes, ...]) -> T:
+    """The command's result; a field that does not decode is a MalformedAnswerError."""
+    try:
+        return command.decode_answer(packets)
+    except MalformedAnswerError:
+        raise
+    except FieldError as exc:
+        raw = packets[0] if len(packets) == 1 else b""
+        raise MalformedAnswerError(command.CODE, str(exc), raw) from exc
+
+
+def _flag_error(code: str, flag: int) -> CommandPlan[ControllerError]:
+    """The error for a flag; for 0x32, with KD's reason read in the very next exchange."""
+    reason = None
+    if flag == FLAG_FAILED and code != ReadLastError.CODE:
+        kd = ReadLastError()
+        outcome = yield kd
+        if outcome.failure is None and outcome.flag is None:
+            try:
+                reason = decode(kd, outcome.packets) or None
+            except MalformedAnswerError:
+                reason = None
+    return error_for_flag(flag, code, reason)
+
+
+def _answer_was_corrupt(failure: ExchangeFailed) -> bool:
+    """NAK exhaustion on our side: the answer arrived, damaged, so the controller acted."""
+    return "corrupt" in failure.detail
+
+
+def failure_error(command: Command[Any], failure: ExchangeFailed, policy: Policy) -> RobostarError:
+    """The typed error for an exchange the link gave up on."""
+    code = command.CODE
+    reason = failure.reason
+    if reason is FailReason.TIMEOUT:
+        if command.CHANGES_STATE:
+            return OutcomeUnknownError(code, f"no answer within {policy.timeout:g} s")
+        return ReplyTimeoutError(code, policy.timeout, failure.detail)
+    if reason is FailReason.NAK_LIMIT:
+        if command.CHANGES_STATE and _answer_was_corrupt(failure):
+            return OutcomeUnknownError(code, "its answer arrived corrupt too many times")
+        return NakLimitError(code, MAX_NAKS + 1)
+    if reason is FailReason.RULE:
+        return failure.error or LinkRuleError("host", failure.state.value, "packet", failure.detail)
+    return LinkResetError(code, failure.detail or reason.value)
+
+
+def command_plan(command: Command[T], policy: Policy) -> CommandPlan[T]:
+    """Run ``command`` by the rules above; returns its decoded result."""
+    if isinstance(command, UploadFile):
+        yield from _upload_plan(command, policy)
+        return cast(T, None)  # FB's result type is None
+    attempt = 0
+    while True:
+        outcome = yield command
+        failure = outcome.failure
+        if failure is None:
+            if outcome.flag is not None:
+                raise (yield from _flag_error(command.CODE, outcome.flag))
+            return decode(command, outcome.packets)
+        retry = failure.reason is FailReason.TIMEOUT and not command.CHANGES_STATE
+        if retry and attempt < policy.retries:
+            attempt += 1
+            continue
+        raise failure_error(command, failure, policy)
+
+
+def upload_matches(command: UploadFile, content: JobFile | PointFile) -> bool:
+    """Does the file read back with FA hold exactly what ``command`` uploaded?"""
+    if isinstance(content, JobFile):
+        return content.lines == command.lines
+    uploaded = dict(parse_point_line(line, command="FB") for line in command.lines)
+    return content.points == uploaded
+
+
+def _upload_plan(command: UploadFile, policy: Policy) -> CommandPlan[None]:
+    name = f"{command.file} (channel {command.channel})"
+    total = len(command.lines)
+    outcome = yield command
+    failure = outcome.failure
+    if failure is None:
+        if outcome.flag is None:
+            decode(command, outcome.packets)
+            return
+        error = yield from _flag_error(command.CODE, outcome.flag)
+        if len(outcome.packets) == 1:
+            raise error  # the request itself was refused: nothing was stored
+        done = outcome.lines_sent
+        what = f"line {done + 1} of {total}" if done < total else "the closing packet"
+        raise UploadIncompleteError(f"FB {name}: the controller refused {what}: {error}") from error
+    if failure.reason is FailReason.TIMEOUT and failure.state is State.UPLOAD_WAIT_ACK:
+        # Every line was accepted and only the closing ACK is missing: read the file back.
+        readback = DownloadFile(command.channel, command.file, CoordSystem.ANGLE)
+        try:
+            content = yield from command_plan(readback, policy)
+        except RobostarError as exc:
+            raise UploadIncompleteError(
+                f"FB {name}: the final ACK was lost and the file could not be read back: {exc}"
+            ) from exc
+        if upload_matches(command, content):
+            return
+        raise UploadIncompleteError(
+            f"FB {name}: the final ACK was lost and the file read back differs from the upload"
+        )
+    cause = failure_error(command, failure, policy)
+    raise UploadIncompleteError(
+        f"FB {name}: the upload stopped after {outcome.lines_sent} of {total} lines: {cause}"
+    ) from cause

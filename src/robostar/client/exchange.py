@@ -1,0 +1,152 @@
+"""One exchange on the link as a step object: no I/O and no clock, shared by both clients.
+
+An :class:`Exchange` wraps :class:`~robostar.protocol.link.HostLink` for one command: it encodes
+the request (so a bad field is refused before a byte is written), collects the answer packets,
+feeds FB's lines as the controller asks for them, and ends with an :class:`Outcome`. The driver
+around it only moves bytes and waits until :meth:`Exchange.deadline`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+from robostar.commands.base import Command, split_answer
+from robostar.commands.files import DownloadFile, UploadFile
+from robostar.errors import LinkRuleError
+from robostar.protocol.fields import FLAG_FAILED, FLAG_REJECTED, FLAG_UNSUPPORTED, FileName
+from robostar.protocol.link import (
+    AnswerReceived,
+    ExchangeComplete,
+    ExchangeFailed,
+    HostLink,
+    LinkEvent,
+    UploadReady,
+)
+
+__all__ = ["ERROR_FLAGS", "Exchange", "Outcome", "Progress"]
+
+ERROR_FLAGS = frozenset((FLAG_REJECTED, FLAG_FAILED, FLAG_UNSUPPORTED))
+
+Progress = Callable[[int, int | None], None]
+"""Called as ``progress(done, total)``: packets received (downloads) or lines the controller
+accepted (uploads), and the total when it is known (``None`` otherwise)."""
+
+
+@dataclass(frozen=True, slots=True)
+class Outcome:
+    """How one exchange ended.
+
+    ``packets`` are the answer packets in order (for FB: the controller's replies). ``flag`` is
+    the error flag (0x31-0x33) if the controller answered with one; ``failure`` is set when the
+    link gave up (timeout, RST, NAKs, a broken rule). ``lines_sent`` counts FB lines the
+    controller accepted.
+    """
+
+    packets: tuple[bytes, ...]
+    flag: int | None = None
+    failure: ExchangeFailed | None = None
+    lines_sent: int = 0
+
+
+def _job_total(command: DownloadFile, first: bytes) -> int | None:
+    """FA of a JOB file: the first packet announces the step count, so the packet count is
+    known (announcement + steps + END). A PNT file announces its highest point number, which
+    says nothing of how many points it holds."""
+    file = command.file
+    if not (isinstance(file, FileName) and file.is_job):
+        return None
+    text = split_answer(first).body.decode("ascii", "replace").strip()
+    return int(text) + 2 if text.isdigit() else None
+
+
+class Exchange:
+    """Runs one command's exchange on ``link``; the caller moves the bytes.
+
+    Use: :meth:`start`, then loop writing :meth:`output` and feeding :meth:`receive` (bytes) or
+    :meth:`tick` (nothing arrived by :meth:`deadline`) until :attr:`done`; read :meth:`outcome`.
+    """
+
+    def __init__(
+        self, link: HostLink, command: Command[Any], progress: Progress | None = None
+    ) -> None:
+        self.link = link
+        self.command = command
+        self.progress = progress
+        # Encoding checks every field; a bad one raises FieldError before anything is written.
+        self.request = command.encode()
+        self._bodies = command.upload_bodies() if isinstance(command, UploadFile) else []
+        self._next_line = 0
+        self._accepted = 0
+        self._packets: list[bytes] = []
+        self._flag: int | None = None
+        self._failure: ExchangeFailed | None = None
+        self._total = len(self._bodies) if isinstance(command, UploadFile) else None
+        self.done = False
+
+    def start(self, now: float) -> None:
+        """Send the request."""
+        self._handle(self.link.send_request(self.request, self.command.SHAPE, now), now)
+
+    def output(self) -> bytes:
+        """Bytes to write now."""
+        return self.link.data_to_send()
+
+    def deadline(self) -> float:
+        """When :meth:`tick` is due if nothing arrives (the link always has a timer here)."""
+        deadline = self.link.next_deadline()
+        if deadline is None:
+            raise LinkRuleError("host", self.link.state.value, "wait", "no timer while waiting")
+        return deadline
+
+    def receive(self, data: bytes, now: float) -> None:
+        self._handle(self.link.receive_data(data, now), now)
+
+    def tick(self, now: float) -> None:
+        self._handle(self.link.handle_timeout(now), now)
+
+    def abort(self, now: float) -> None:
+        """End the exchange with RST (the caller gave up: Ctrl-C, a lost port)."""
+        self._handle(self.link.abort(now), now)
+        self.done = True
+
+    def outcome(self) -> Outcome:
+        return Outcome(tuple(self._packets), self._flag, self._failure, self._accepted)
+
+    # -- events ----------------------------------------------------------------------------
+    def _handle(self, events: list[LinkEvent], now: float) -> None:
+        for event in events:
+            if isinstance(event, AnswerReceived):
+                self._packets.append(event.data)
+                if event.flag in ERROR_FLAGS:
+                    self._flag = event.flag
+                else:
+                    self._answer_progress(event.data)
+            elif isinstance(event, UploadReady):
+                self._packets.append(event.data)
+                self._send_next_line(now)
+            elif isinstance(event, ExchangeComplete):
+                self.done = True
+            elif isinstance(event, ExchangeFailed):
+                self._failure = event
+                self.done = True
+
+    def _answer_progress(self, data: bytes) -> None:
+        if isinstance(self.command, DownloadFile) and len(self._packets) == 1:
+            self._total = _job_total(self.command, data)
+        if self.progress is not None:
+            self.progress(len(self._packets), self._total)
+
+    def _send_next_line(self, now: float) -> None:
+        # The first reply accepts the request; each later one accepts the line sent before it.
+        if self._next_line:
+            self._accepted = self._next_line
+            if self.progress is not None:
+                self.progress(self._accepted, self._total)
+        if self._next_line < len(self._bodies):
+            body = self._bodies[self._next_line]
+            self._next_line += 1
+            self._handle(self.link.send_upload_line(body, now), now)
+        else:
+            self._handle(self.link.send_upload_end(now), now)

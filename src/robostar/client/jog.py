@@ -1,0 +1,279 @@
+"""Jogging: BE, then BF every ``interval`` (under 500 ms), and BG however the jog ends.
+
+A :class:`Jog` (blocking client) keeps the jog alive from a background thread, an
+:class:`AsyncJog` from a task. Keepalives go ahead of other calls on the client (see
+:mod:`robostar.client.locks`). BG is sent when the ``with`` block ends, normally or by an
+exception (Ctrl-C included); at interpreter exit for jogs still running; and on SIGTERM the
+keepalives stop at once (so the controller stops the robot within 500 ms) before the previous
+handler runs - by default Python's exit, as :class:`SystemExit`, so ``with`` blocks and exit
+handlers still send BG.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import atexit
+import contextlib
+import signal
+import threading
+import time
+from collections.abc import Awaitable, Callable
+from types import FrameType, TracebackType
+from typing import Protocol
+
+from robostar.client import args
+from robostar.client.errors import JogInterruptedError
+from robostar.commands.base import Command
+from robostar.commands.motion import JogContinue, JogStart, JogStop
+from robostar.errors import UsageError
+from robostar.types import JogDirection, MotionType
+
+__all__ = ["AsyncJog", "Jog", "jog_start"]
+
+
+class _Halt(Protocol):
+    def halt(self) -> None: ...
+
+
+class _Registry:
+    """Jogs running in this process, for the exit and SIGTERM handlers."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._jogs: set[_Halt] = set()
+        self._at_exit_registered = False
+        self._sigterm_handled = False
+
+    def add(self, jog: _Halt) -> None:
+        with self._lock:
+            self._jogs.add(jog)
+            if not self._at_exit_registered:
+                self._at_exit_registered = True
+                atexit.register(self._at_exit)
+            # Only the main thread may set a signal handler: a jog started elsewhere leaves it
+            # to the next one started there (exit handlers still cover a clean exit).
+            if not self._sigterm_handled and threading.current_thread() is threading.main_thread():
+                self._sigterm_handled = True
+                self._install_sigterm()
+
+    def discard(self, jog: _Halt) -> None:
+        with self._lock:
+            self._jogs.discard(jog)
+
+    def running(self) -> list[_Halt]:
+        with self._lock:
+            return list(self._jogs)
+
+    def _at_exit(self) -> None:
+        for jog in self.running():
+            if isinstance(jog, Jog):
+                with contextlib.suppress(Exception):
+                    jog.stop()
+
+    def _install_sigterm(self) -> None:
+        previous = signal.getsignal(signal.SIGTERM)
+        if previous == signal.SIG_IGN:
+            return
+
+        def on_sigterm(signum: int, frame: FrameType | None) -> None:
+            jogs = self.running()
+            for jog in jogs:
+                jog.halt()
+            if callable(previous):
+                previous(signum, frame)
+            elif jogs:
+                # Exit as the default would, but by unwinding: ``with`` blocks send BG.
+                raise SystemExit(128 + signum)
+            else:
+                signal.signal(signal.SIGTERM, signal.SIG_DFL)
+                signal.raise_signal(signal.SIGTERM)
+
+        signal.signal(signal.SIGTERM, on_sigterm)
+
+
+_registry = _Registry()
+
+
+class _JogBase:
+    """What both jogs keep, and how a ``with`` block around one ends."""
+
+    def __init__(self, start: JogStart, interval: float) -> None:
+        self.command = start
+        self.interval = interval
+        self.error: BaseException | None = None
+        """Why the keepalive failed, if it did (the controller has stopped the jog)."""
+        self._running = False
+
+    @property
+    def running(self) -> bool:
+        return self._running
+
+    def _next_due(self, due: float) -> float:
+        # Fixed rate from the schedule; after a late keepalive, the next goes at once.
+        return max(due + self.interval, time.monotonic())
+
+    def _ended(self, exc: BaseException | None, stop_error: Exception | None) -> None:
+        """After BG at the end of a ``with`` block: raise what the caller must hear of."""
+        if stop_error is not None:
+            if exc is None:
+                raise stop_error
+            exc.add_note(f"robostar: the jog stop (BG) failed too: {stop_error}")
+        elif exc is None and self.error is not None:
+            raise JogInterruptedError(
+                f"channel {self.command.channel}: a jog keepalive (BF) failed, so the "
+                f"controller stopped the jog: {self.error}"
+            ) from self.error
+
+
+class Jog(_JogBase):
+    """A running jog on a blocking client; use it in a ``with`` block (or start()/stop())."""
+
+    def __init__(
+        self,
+        call: Callable[[Command[None]], None],
+        start: JogStart,
+        interval: float,
+    ) -> None:
+        super().__init__(start, interval)
+        self._call = call
+        self._halted = threading.Event()
+        self._thread: threading.Thread | None = None
+
+    def start(self) -> None:
+        """Send BE and start the keepalives."""
+        if self._running:
+            return
+        self._call(self.command)
+        self._running = True
+        _registry.add(self)
+        self._thread = threading.Thread(
+            target=self._keepalive, name=f"robostar jog ch{self.command.channel}", daemon=True
+        )
+        self._thread.start()
+
+    def halt(self) -> None:
+        """Stop the keepalives without sending anything (the robot stops within 500 ms)."""
+        self._halted.set()
+
+    def stop(self) -> None:
+        """Stop the keepalives and send BG."""
+        if not self._running:
+            return
+        self.halt()
+        if self._thread is not None and self._thread is not threading.current_thread():
+            self._thread.join()
+        self._running = False
+        _registry.discard(self)
+        self._call(JogStop(self.command.channel))
+
+    def _keepalive(self) -> None:
+        keep = JogContinue(self.command.channel)
+        due = time.monotonic() + self.interval
+        while not self._halted.wait(max(due - time.monotonic(), 0.0)):
+            try:
+                self._call(keep)
+            except BaseException as exc:  # reported by __exit__
+                self.error = exc
+                return
+            due = self._next_due(due)
+
+    def __enter__(self) -> Jog:
+        self.start()
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        try:
+            self.stop()
+        except Exception as stop_error:
+            self._ended(exc, stop_error)
+        else:
+            self._ended(exc, None)
+
+
+class AsyncJog(_JogBase):
+    """A running jog on an asyncio client; use it in an ``async with`` block."""
+
+    def __init__(
+        self,
+        call: Callable[[Command[None]], Awaitable[None]],
+        start: JogStart,
+        interval: float,
+    ) -> None:
+        super().__init__(start, interval)
+        self._call = call
+        self._halted = asyncio.Event()
+        self._task: asyncio.Task[None] | None = None
+
+    async def start(self) -> None:
+        """Send BE and start the keepalive task."""
+        if self._running:
+            return
+        await self._call(self.command)
+        self._running = True
+        _registry.add(self)
+        self._task = asyncio.create_task(self._keepalive())
+
+    def halt(self) -> None:
+        """Stop the keepalives without sending anything (the robot stops within 500 ms)."""
+        self._halted.set()
+
+    async def stop(self) -> None:
+        """Stop the keepalives and send BG."""
+        if not self._running:
+            return
+        self.halt()
+        if self._task is not None:
+            await self._task
+        self._running = False
+        _registry.discard(self)
+        await self._call(JogStop(self.command.channel))
+
+    async def _keepalive(self) -> None:
+        keep = JogContinue(self.command.channel)
+        due = time.monotonic() + self.interval
+        while True:
+            with contextlib.suppress(TimeoutError):
+                async with asyncio.timeout(max(due - time.monotonic(), 0.0)):
+                    await self._halted.wait()
+            if self._halted.is_set():
+                return
+            try:
+                await self._call(keep)
+            except Exception as exc:  # reported by __aexit__
+                self.error = exc
+                return
+            due = self._next_due(due)
+
+    async def __aenter__(self) -> AsyncJog:
+        await self.start()
+        return self
+
+    async def __aexit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        try:
+            await self.stop()
+        except Exception as stop_error:
+            self._ended(exc, stop_error)
+        else:
+            self._ended(exc, None)
+
+
+def jog_start(
+    channel: int, axis: int, direction: str | int | JogDirection, motion: str | MotionType
+) -> JogStart:
+    """The BE request of a jog, every argument checked."""
+    kind = args.motion_type(motion)
+    if kind not in (MotionType.JOINT, MotionType.LINEAR):
+        raise UsageError(f"motion: a jog is 'joint' or 'linear', not {motion!r}")
+    start = JogStart(args.channel(channel), axis, args.jog_direction(direction), kind)
+    start.encode()  # the axis is checked here, before the jog object exists
+    return start

@@ -1,0 +1,107 @@
+"""One exchange at a time, with a fast lane: the locks behind both clients.
+
+A jog's keepalive (BF) must reach the controller within 500 ms of the last one, so it may not
+queue behind other callers: an urgent acquirer waits only for the exchange in progress, and
+ordinary acquirers step aside while an urgent one waits. Re-entering from the holder (a
+progress or trace callback calling the client) would interleave two exchanges on the wire; it
+raises UsageError instead of deadlocking.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import threading
+from collections import deque
+from collections.abc import AsyncIterator, Iterator
+from contextlib import asynccontextmanager, contextmanager
+
+from robostar.errors import UsageError
+
+__all__ = ["AsyncPriorityLock", "PriorityLock"]
+
+_REENTRY = (
+    "the client was called from inside one of its own exchanges (a progress or trace callback);"
+    " call it after the exchange instead"
+)
+
+
+class PriorityLock:
+    """A thread lock where ``urgent`` acquirers go ahead of ordinary ones."""
+
+    def __init__(self) -> None:
+        self._cond = threading.Condition(threading.Lock())
+        self._owner: int | None = None
+        self._urgent = 0
+
+    @contextmanager
+    def hold(self, *, urgent: bool = False) -> Iterator[None]:
+        me = threading.get_ident()
+        with self._cond:
+            if self._owner == me:
+                raise UsageError(_REENTRY)
+            if urgent:
+                self._urgent += 1
+            try:
+                while self._owner is not None or (self._urgent and not urgent):
+                    self._cond.wait()
+            finally:
+                if urgent:
+                    self._urgent -= 1
+                    # Ordinary waiters may go once no urgent one is left.
+                    self._cond.notify_all()
+            self._owner = me
+        try:
+            yield
+        finally:
+            with self._cond:
+                self._owner = None
+                self._cond.notify_all()
+
+
+class AsyncPriorityLock:
+    """The asyncio twin of :class:`PriorityLock` (one event loop; safe between tasks).
+
+    Release hands the lock straight to the next waiter (urgent ones first), so that the
+    release path never awaits and a cancelled task cannot leave the lock held.
+    """
+
+    def __init__(self) -> None:
+        self._owner: asyncio.Task[object] | None = None
+        self._held = False
+        self._waiters: deque[tuple[bool, asyncio.Future[None]]] = deque()
+
+    @asynccontextmanager
+    async def hold(self, *, urgent: bool = False) -> AsyncIterator[None]:
+        me = asyncio.current_task()
+        if self._held and me is not None and self._owner is me:
+            raise UsageError(_REENTRY)
+        if self._held:
+            granted: asyncio.Future[None] = asyncio.get_running_loop().create_future()
+            entry = (urgent, granted)
+            self._waiters.append(entry)
+            try:
+                await granted
+            except BaseException:
+                if granted.done() and not granted.cancelled():
+                    self._release()  # handed over just as this task was cancelled: pass it on
+                elif entry in self._waiters:
+                    self._waiters.remove(entry)
+                raise
+        else:
+            self._held = True
+        self._owner = me
+        try:
+            yield
+        finally:
+            self._release()
+
+    def _release(self) -> None:
+        self._owner = None
+        while self._waiters:
+            chosen = next((w for w in self._waiters if w[0]), self._waiters[0])
+            self._waiters.remove(chosen)
+            if not chosen[1].done():  # a cancelled waiter is skipped
+                # The lock stays held: it passes to the chosen waiter.
+                chosen[1].set_result(None)
+                return
+        self._held = False

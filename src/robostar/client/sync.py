@@ -1,0 +1,168 @@
+"""The blocking client: :class:`Client`. Safe to share between threads."""
+
+from __future__ import annotations
+
+import contextlib
+import time
+import weakref
+from types import TracebackType
+from typing import Any, Self, TypeVar
+
+from robostar.client.binding import SyncRunner
+from robostar.client.core import ClientBase, LineIO, Settings, Write, check_keepalive
+from robostar.client.driver import command_plan
+from robostar.client.exchange import Outcome, Progress
+from robostar.client.jog import Jog, jog_start
+from robostar.client.locks import PriorityLock
+from robostar.client.plan import Call, Effect, Plan, run_plan
+from robostar.client.trace import TraceTarget
+from robostar.commands.base import Command
+from robostar.errors import RobostarError, UsageError
+from robostar.transport import Transport, transport_for_url
+from robostar.types import JogDirection, MotionType
+
+__all__ = ["Client"]
+
+R = TypeVar("R")
+
+
+class Client(ClientBase, SyncRunner):
+    """A connection to one N1 controller, with every protocol command as a method.
+
+    ``port`` is a device (``"/dev/ttyUSB0"``, ``"COM3"``), a URL (``"tcp://host:20000"``,
+    ``"sim://"``, ``"serial:///dev/ttyUSB0?baudrate=57600"``, a pyserial URL) or a
+    :class:`~robostar.transport.Transport`. The line is opened at once (PortError if it cannot
+    be). One exchange runs at a time; threads take turns, jog keepalives first.
+
+    Options: ``timeout`` reply timeout (2 s); ``retries`` resends of a read-only command after
+    a lost answer (1; state-changing commands are never resent); ``trace`` a path or callable
+    for the wire trace; ``reconnect`` reopen a lost line on the next call; ``poll_interval``
+    status reads while waiting (0.1 s); ``keepalive`` jog BF interval (0.2 s, under 0.5 s);
+    other keyword options go to the transport (``baudrate=57600``).
+    """
+
+    transport: Transport
+
+    def __init__(
+        self,
+        port: str | Transport,
+        *,
+        timeout: float = 2.0,
+        retries: int = 1,
+        trace: TraceTarget | None = None,
+        reconnect: bool = False,
+        poll_interval: float = 0.1,
+        keepalive: float = 0.2,
+        **transport_options: Any,
+    ) -> None:
+        settings = Settings(timeout, retries, poll_interval, keepalive, reconnect)
+        if isinstance(port, Transport):
+            if transport_options:
+                raise UsageError("transport options go with a URL, not with a Transport")
+            self.transport = port
+        else:
+            self.transport = transport_for_url(port, **transport_options)
+        self._setup(settings, trace)
+        self._lock = PriorityLock()
+        self._jogs: weakref.WeakSet[Jog] = weakref.WeakSet()
+        try:
+            self._open()
+        except BaseException:
+            self._close_trace()
+            raise
+
+    # -- life cycle ------------------------------------------------------------------------
+    def _open(self) -> None:
+        if not self.transport.is_open:
+            self.transport.open()
+        self._opened = True
+        self._link = self._new_link()
+
+    def _ensure_open(self) -> None:
+        if not self.transport.is_open:
+            self._check_may_open()
+            self._open()
+
+    def close(self) -> None:
+        """Stop running jogs (BG), close the line and the trace file; later calls raise
+        PortError."""
+        if self._closed:
+            return
+        for jog in list(self._jogs):
+            with contextlib.suppress(RobostarError):
+                jog.stop()
+        with self._lock.hold(urgent=True):
+            self._closed = True
+            self.transport.close()
+            self._close_trace()
+
+    def __enter__(self) -> Self:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        self.close()
+
+    # -- running plans ---------------------------------------------------------------------
+    def _run(self, plan: Plan[R]) -> R:
+        return run_plan(plan, self._perform)
+
+    def _perform(self, effect: Effect) -> object:
+        if isinstance(effect, Call):
+            return self._call(effect.command, effect.progress)
+        time.sleep(effect.seconds)
+        return None
+
+    def _call(
+        self, command: Command[R], progress: Progress | None = None, *, urgent: bool = False
+    ) -> R:
+        """Run one command (its retries and KD follow-up included) while holding the line."""
+        with self._lock.hold(urgent=urgent):
+            self._ensure_open()
+
+            def exchange(request: Command[Any]) -> Outcome:
+                steps = self._exchange_plan(request, progress if request is command else None)
+                return run_plan(steps, self._line_io)
+
+            return run_plan(command_plan(command, self._policy), exchange)
+
+    # -- the line -------------------------------------------------------------------------
+    def _line_io(self, step: LineIO) -> bytes | None:
+        if isinstance(step, Write):
+            self._traced_sent(step.data)
+            self.transport.write(step.data)
+            return None
+        data = self.transport.read(step.timeout)
+        if data:
+            self._traced_received(data)
+        return data
+
+    # -- jogging ---------------------------------------------------------------------------
+    def jog(
+        self,
+        channel: int,
+        axis: int,
+        direction: str | int | JogDirection,
+        *,
+        motion: str | MotionType = "joint",
+        interval: float | None = None,
+    ) -> Jog:
+        """BE, BF every ``interval`` s (the client's ``keepalive``), BG at the end.
+
+        Use as ``with client.jog(1, axis=1, direction="+"): ...``. ``direction`` is "+"/"-"
+        (or 1/-1); ``motion`` "joint" or "linear".
+        """
+        start = jog_start(channel, axis, direction, motion)
+        every = (
+            self.settings.keepalive if interval is None else check_keepalive(interval, "interval")
+        )
+        jog = Jog(self._urgent_call, start, every)
+        self._jogs.add(jog)
+        return jog
+
+    def _urgent_call(self, command: Command[None]) -> None:
+        self._call(command, urgent=True)

@@ -1,0 +1,112 @@
+"""The byte-pipe interfaces: a blocking :class:`Transport` and an asyncio :class:`AsyncTransport`.
+
+A transport moves bytes and nothing else: no framing, no protocol. ``read(timeout)`` returns the
+bytes that arrived (at least one) or ``b""`` when ``timeout`` seconds passed without any; a
+closed or broken line raises :class:`~robostar.errors.PortError`. A closed transport can be
+opened again, which is how a client reconnects.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from types import TracebackType
+from typing import Self
+
+from robostar.errors import PortError
+
+__all__ = ["AsyncTransport", "Transport"]
+
+
+class Transport(ABC):
+    """A blocking byte pipe. Use it as a context manager or call :meth:`open`/:meth:`close`."""
+
+    url: str = ""
+    """Where the pipe goes, for messages (a device path, ``tcp://host:port``, ``sim://``)."""
+
+    @property
+    @abstractmethod
+    def is_open(self) -> bool:
+        """True between a successful :meth:`open` and :meth:`close` (or a broken line)."""
+
+    @abstractmethod
+    def open(self) -> None:
+        """Open the pipe; PortError saying what is wrong and what to do if it cannot."""
+
+    @abstractmethod
+    def close(self) -> None:
+        """Close the pipe; closing a closed pipe does nothing."""
+
+    @abstractmethod
+    def write(self, data: bytes) -> None:
+        """Send ``data`` whole."""
+
+    @abstractmethod
+    def read(self, timeout: float) -> bytes:
+        """Bytes that arrived within ``timeout`` seconds (``0``: only those already here)."""
+
+    def _closed_error(self) -> PortError:
+        return PortError(f"{self.url}: the port is not open")
+
+    def __enter__(self) -> Self:
+        if not self.is_open:
+            self.open()
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        self.close()
+
+    def __repr__(self) -> str:
+        state = "open" if self.is_open else "closed"
+        return f"<{type(self).__name__} {self.url} {state}>"
+
+
+class AsyncTransport(ABC):
+    """The asyncio twin of :class:`Transport`."""
+
+    url: str = ""
+
+    @property
+    @abstractmethod
+    def is_open(self) -> bool:
+        """True between a successful :meth:`open` and :meth:`close` (or a broken line)."""
+
+    @abstractmethod
+    async def open(self) -> None:
+        """Open the pipe; PortError saying what is wrong and what to do if it cannot."""
+
+    @abstractmethod
+    async def close(self) -> None:
+        """Close the pipe; closing a closed pipe does nothing."""
+
+    @abstractmethod
+    async def write(self, data: bytes) -> None:
+        """Send ``data`` whole."""
+
+    @abstractmethod
+    async def read(self, timeout: float) -> bytes:
+        """Bytes that arrived within ``timeout`` seconds (``0``: only those already here)."""
+
+    def _closed_error(self) -> PortError:
+        return PortError(f"{self.url}: the port is not open")
+
+    async def __aenter__(self) -> Self:
+        if not self.is_open:
+            await self.open()
+        return self
+
+    async def __aexit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        await self.close()
+
+    def __repr__(self) -> str:
+        state = "open" if self.is_open else "closed"
+        return f"<{type(self).__name__} {self.url} {state}>"

@@ -1,0 +1,95 @@
+"""TCP transport: ``tcp://host:port``, with Nagle off so that each packet leaves at once."""
+
+from __future__ import annotations
+
+import contextlib
+import socket
+
+from robostar.errors import PortError
+from robostar.transport.base import Transport
+from robostar.transport.url import DEFAULT_TCP_PORT
+
+__all__ = ["TcpTransport", "tcp_open_error"]
+
+_RECV_SIZE = 4096
+
+
+def tcp_open_error(url: str, exc: OSError) -> PortError:
+    """A PortError saying why a TCP connection could not be made, and what to check."""
+    if isinstance(exc, ConnectionRefusedError):
+        hint = "connection refused; is the controller's gateway on and listening on that port?"
+    elif isinstance(exc, socket.gaierror):
+        hint = f"unknown host ({exc}); check the address"
+    elif isinstance(exc, TimeoutError):
+        hint = "no answer to the connection attempt; check the address, cable and firewall"
+    else:
+        hint = f"could not connect: {exc}"
+    return PortError(f"{url}: {hint}")
+
+
+class TcpTransport(Transport):
+    """A TCP socket to a controller's serial gateway (or to the simulator's TCP server)."""
+
+    def __init__(
+        self,
+        host: str,
+        port: int = DEFAULT_TCP_PORT,
+        *,
+        connect_timeout: float = 5.0,
+        url: str = "",
+    ) -> None:
+        self.host = host
+        self.port = port
+        self.connect_timeout = connect_timeout
+        self.url = url or f"tcp://{host}:{port}"
+        self._sock: socket.socket | None = None
+
+    @property
+    def is_open(self) -> bool:
+        return self._sock is not None
+
+    def open(self) -> None:
+        if self._sock is not None:
+            return
+        try:
+            sock = socket.create_connection((self.host, self.port), timeout=self.connect_timeout)
+        except OSError as exc:
+            raise tcp_open_error(self.url, exc) from exc
+        sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        self._sock = sock
+
+    def close(self) -> None:
+        sock, self._sock = self._sock, None
+        if sock is not None:
+            with contextlib.suppress(OSError):
+                sock.close()
+
+    def _lost(self, exc: BaseException | None) -> PortError:
+        self.close()
+        detail = f" ({exc})" if exc else ""
+        return PortError(f"{self.url}: the connection was lost{detail}")
+
+    def write(self, data: bytes) -> None:
+        sock = self._sock
+        if sock is None:
+            raise self._closed_error()
+        try:
+            sock.settimeout(self.connect_timeout)
+            sock.sendall(data)
+        except OSError as exc:
+            raise self._lost(exc) from exc
+
+    def read(self, timeout: float) -> bytes:
+        sock = self._sock
+        if sock is None:
+            raise self._closed_error()
+        try:
+            sock.settimeout(max(timeout, 0.0))
+            data = sock.recv(_RECV_SIZE)
+        except (TimeoutError, BlockingIOError):
+            return b""
+        except OSError as exc:
+            raise self._lost(exc) from exc
+        if not data:
+            raise self._lost(None)
+        return data
