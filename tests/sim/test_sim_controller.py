@@ -16,7 +16,7 @@ from robostar.commands.status import ReadStatus
 from robostar.commands.variables import WriteGlobalFloat, WriteGlobalInt
 from robostar.errors import UsageError
 from robostar.protocol.frame import encode_packet
-from robostar.protocol.link import AnswerReceived, State
+from robostar.protocol.link import AnswerReceived, HostLink, State
 from robostar.sim import Model, SimConfig, VirtualController
 from robostar.sim.alarms import AlarmCode
 from robostar.transport.peer import BytePeer
@@ -66,6 +66,9 @@ def test_dc_first_answer_comes_at_once_and_the_second_after_loading():
 
 def test_a_new_request_drops_a_pending_second_answer_but_not_the_work():
     h = Harness(speedup=1.0)
+    # This is about the controller; without the host's quiet gap after its RST, the next
+    # request reaches the controller while the servo is still coming on.
+    h.host = HostLink(timeout=2.0, resync_gap=0)
     command = Servo(1, True)
     h.host.send_request(command.encode(), command.SHAPE, h.now)
     h.wait(0.05)  # first answer sent and ACKed; the controller works on
