@@ -9,10 +9,12 @@ import pytest
 
 import robostar.errors as errors
 from robostar.errors import (
+    AlarmRaisedError,
     ControllerError,
     FieldError,
     FrameError,
     FunctionFailedError,
+    JogInterruptedError,
     LineError,
     LinkResetError,
     LinkRuleError,
@@ -28,6 +30,8 @@ from robostar.errors import (
     RobostarError,
     UploadIncompleteError,
     UsageError,
+    WaitError,
+    WaitTimeoutError,
     error_for_flag,
 )
 
@@ -50,6 +54,10 @@ EXPECTED_PARENT: dict[type[Exception], type[Exception]] = {
     LinkResetError: LineError,
     UploadIncompleteError: LineError,
     PortError: LineError,
+    WaitError: RobostarError,
+    WaitTimeoutError: WaitError,
+    AlarmRaisedError: WaitError,
+    JogInterruptedError: RobostarError,
 }
 
 
@@ -105,7 +113,7 @@ def test_the_docstring_draws_the_real_tree() -> None:
 
 
 def test_branches_do_not_overlap() -> None:
-    branches = (UsageError, ProtocolError, ControllerError, LineError)
+    branches = (UsageError, ProtocolError, ControllerError, LineError, WaitError)
     for a in branches:
         for b in branches:
             if a is not b:
@@ -117,6 +125,7 @@ def test_standard_bases_so_plain_except_clauses_work() -> None:
     assert issubclass(UsageError, ValueError)
     assert issubclass(FieldError, ValueError)
     assert issubclass(PortError, OSError)
+    assert issubclass(WaitTimeoutError, TimeoutError)
     with pytest.raises(TimeoutError):
         raise ReplyTimeoutError("AA", 2.0)
     with pytest.raises(ValueError):

@@ -1,4 +1,4 @@
-"""Tests of the import direction: errors <- types <- protocol <- commands <- {client, sim} <- cli.
+"""Tests of the import direction: types <- errors <- protocol <- commands <- {client, sim} <- cli.
 
 The imports are read with ``ast`` (nothing is imported), so the test also sees imports inside
 functions. Packages that do not exist yet (client, sim, cli, transport) are simply not checked.
@@ -17,8 +17,8 @@ import robostar
 SRC = Path(robostar.__file__).parent
 
 LAYER = {
-    "errors": 0,
-    "types": 1,
+    "types": 0,
+    "errors": 1,
     "protocol": 2,
     "commands": 3,
     "client": 4,
@@ -150,7 +150,7 @@ def test_protocol_and_commands_do_no_io() -> None:
     ("module", "source", "is_package"),
     [
         ("robostar.protocol.frame", "from robostar.commands import COMMANDS\n", False),
-        ("robostar.errors", "from robostar.types import Point\n", False),
+        ("robostar.types", "from robostar.errors import FieldError\n", False),
         ("robostar.types", "import robostar.protocol.fields\n", False),
         ("robostar.commands.base", "def f():\n    from robostar.client import Client\n", False),
         ("robostar.sim.model", "from ..cli import main\n", False),

@@ -15,24 +15,35 @@ Every error robostar raises is a :class:`RobostarError`. The tree splits errors 
     │   ├── RejectedError         (0x31)    the packet was not understood
     │   ├── FunctionFailedError   (0x32)    understood, but cannot be done now (KD reason)
     │   └── NotSupportedError     (0x33)    not supported by this controller
-    └── LineError                           the line failed
-        ├── ReplyTimeoutError (TimeoutError)    no answer in time
-        ├── OutcomeUnknownError             a state-changing command may or may not have run
-        ├── NakLimitError                   the peer refused the same packet too many times
-        ├── LinkResetError                  RST: the exchange was aborted
-        ├── UploadIncompleteError           an FB upload did not finish (or could not be verified)
-        └── PortError (OSError)             the port or socket could not be opened or used
+    ├── LineError                           the line failed
+    │   ├── ReplyTimeoutError (TimeoutError)    no answer in time
+    │   ├── OutcomeUnknownError             a state-changing command may or may not have run
+    │   ├── NakLimitError                   the peer refused the same packet too many times
+    │   ├── LinkResetError                  RST: the exchange was aborted
+    │   ├── UploadIncompleteError           an FB upload did not finish (or could not be verified)
+    │   └── PortError (OSError)             the port or socket could not be opened or used
+    ├── WaitError                           waiting for the robot ended without success
+    │   ├── WaitTimeoutError (TimeoutError)     the awaited condition did not come in time
+    │   └── AlarmRaisedError                the channel raised an alarm while it was awaited
+    └── JogInterruptedError                 a jog's keepalive failed; the robot has stopped
 
 Where a controller error has a KD reason, it is in ``reason``.
 """
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # annotations only: errors.py stays the root of the import graph
+    from robostar.types import Alarm, ChannelStatus
+
 __all__ = [
+    "AlarmRaisedError",
     "ControllerError",
     "FieldError",
     "FrameError",
     "FunctionFailedError",
+    "JogInterruptedError",
     "LineError",
     "LinkResetError",
     "LinkRuleError",
@@ -48,6 +59,8 @@ __all__ = [
     "RobostarError",
     "UploadIncompleteError",
     "UsageError",
+    "WaitError",
+    "WaitTimeoutError",
     "error_for_flag",
 ]
 
@@ -205,6 +218,33 @@ class UploadIncompleteError(LineError):
 
 class PortError(LineError, OSError):
     """The port or socket could not be opened or used; the message says what to do."""
+
+
+class WaitError(RobostarError):
+    """Waiting for a channel ended without the awaited condition; ``status`` is the last read."""
+
+    def __init__(self, message: str, channel: int, status: ChannelStatus | None) -> None:
+        self.channel = channel
+        self.status = status
+        super().__init__(message)
+
+
+class WaitTimeoutError(WaitError, TimeoutError):
+    """The awaited condition did not come within the timeout."""
+
+
+class AlarmRaisedError(WaitError):
+    """The channel raised an alarm while it was awaited; ``alarms`` are the current alarms."""
+
+    def __init__(
+        self, message: str, channel: int, status: ChannelStatus, alarms: tuple[Alarm, ...]
+    ) -> None:
+        self.alarms = alarms
+        super().__init__(message, channel, status)
+
+
+class JogInterruptedError(RobostarError):
+    """A jog keepalive (BF) failed, so the controller stopped the jog; ``__cause__`` says why."""
 
 
 def error_for_flag(flag: int, command: str, reason: str | None = None) -> ControllerError:

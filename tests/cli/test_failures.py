@@ -5,10 +5,11 @@ from __future__ import annotations
 import pytest
 
 from robostar.cli.failures import EXIT_BAD_ARGUMENT, EXIT_LINE, EXIT_REFUSED, explain
-from robostar.client.errors import AlarmRaisedError, JogInterruptedError, WaitTimeoutError
 from robostar.errors import (
+    AlarmRaisedError,
     FieldError,
     FunctionFailedError,
+    JogInterruptedError,
     LinkResetError,
     MalformedAnswerError,
     NakLimitError,
@@ -20,6 +21,7 @@ from robostar.errors import (
     RobostarError,
     UploadIncompleteError,
     UsageError,
+    WaitTimeoutError,
 )
 from robostar.types import Alarm, ChannelStatus
 

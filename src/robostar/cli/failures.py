@@ -104,7 +104,7 @@ def explain(error: RobostarError, port: str) -> Failure:
 def _client_logic(error: RobostarError, kind: str, port: str) -> Failure:
     """Errors of the client's own logic: waiting for the robot, a jog's keepalive."""
     # Imported here: the console reads its first errors (bad arguments) without the client.
-    from robostar.client.errors import AlarmRaisedError, JogInterruptedError, WaitTimeoutError
+    from robostar.errors import AlarmRaisedError, JogInterruptedError, WaitTimeoutError
 
     message = _sentence(str(error))
     if isinstance(error, AlarmRaisedError):

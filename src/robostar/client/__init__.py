@@ -6,17 +6,17 @@ Both offer the same methods, written once (:mod:`robostar.client.surface`), over
 
 from robostar.client.aio import AsyncClient
 from robostar.client.backup import BackupFile, Manifest
-from robostar.client.errors import (
-    AlarmRaisedError,
-    JogInterruptedError,
-    WaitError,
-    WaitTimeoutError,
-)
 from robostar.client.exchange import Progress
 from robostar.client.jog import AsyncJog, Jog
 from robostar.client.probe import BAUD_RATES, ProbeAttempt, ProbeResult, probe
 from robostar.client.sync import Client
 from robostar.client.trace import TraceRecord
+from robostar.errors import (
+    AlarmRaisedError,
+    JogInterruptedError,
+    WaitError,
+    WaitTimeoutError,
+)
 
 __all__ = [
     "BAUD_RATES",

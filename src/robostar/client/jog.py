@@ -22,10 +22,9 @@ from types import FrameType, TracebackType
 from typing import Protocol
 
 from robostar.client import args
-from robostar.client.errors import JogInterruptedError
 from robostar.commands.base import Command
 from robostar.commands.motion import JogContinue, JogStart, JogStop
-from robostar.errors import UsageError
+from robostar.errors import JogInterruptedError, UsageError
 from robostar.types import JogDirection, MotionType
 
 __all__ = ["AsyncJog", "Jog", "jog_start"]

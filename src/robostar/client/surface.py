@@ -16,7 +16,6 @@ from typing import TypeVar
 from robostar.client import args
 from robostar.client.backup import Manifest, backup_plan, restore_plan
 from robostar.client.binding import operation
-from robostar.client.errors import AlarmRaisedError, WaitTimeoutError
 from robostar.client.exchange import Progress
 from robostar.client.files import download_job, download_points, file_name, point_lines, upload
 from robostar.client.plan import Plan, call, sleep
@@ -55,7 +54,7 @@ from robostar.commands.variables import (
     WriteGlobalInt,
     WriteGlobalPoint,
 )
-from robostar.errors import UsageError
+from robostar.errors import AlarmRaisedError, UsageError, WaitTimeoutError
 from robostar.protocol.fields import FileName
 from robostar.types import (
     Alarm,
