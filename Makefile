@@ -4,7 +4,7 @@ VENV   ?= .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test lint check bench clean
+.PHONY: demo test lint check bench reliability clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -19,8 +19,8 @@ test: $(STAMP)
 	$(BIN)/python -m pytest
 
 lint: $(STAMP)
-	$(BIN)/ruff check src tests bench
-	$(BIN)/ruff format --check src tests bench
+	$(BIN)/ruff check src tests bench reliability
+	$(BIN)/ruff format --check src tests bench reliability
 	$(BIN)/mypy
 
 check: lint test
@@ -28,6 +28,16 @@ check: lint test
 bench: $(STAMP)
 	$(BIN)/python -m pip install --quiet -e '.[dev,bench]'
 	$(BIN)/python bench/run.py
+
+# The long reliability runs (a million fuzz inputs, the whole fault matrix, a million-exchange
+# soak); figures go to reliability/results/ and docs/reliability.md. Not part of CI.
+reliability: $(STAMP)
+	$(BIN)/python -m pip install --quiet -e '.[dev,fuzz]'
+	$(BIN)/python reliability/run.py fuzz --inputs 1000000
+	$(BIN)/python reliability/run.py fuzz --engine atheris --inputs 1000000
+	$(BIN)/python reliability/run.py matrix
+	$(BIN)/python reliability/run.py soak --exchanges 1000000
+	$(BIN)/python reliability/run.py table
 
 clean:
 	rm -rf $(VENV) build dist .pytest_cache .mypy_cache .ruff_cache .hypothesis
