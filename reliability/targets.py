@@ -21,7 +21,6 @@ from robostar.protocol.frame import (
     STX,
     Control,
     CorruptPacket,
-    CorruptReason,
     FrameDecoder,
     FrameEvent,
     Packet,
@@ -45,7 +44,6 @@ from robostar.protocol.link import (
 
 __all__ = [
     "KNOWN_COORD_DECIMALS",
-    "KNOWN_OVERLONG",
     "KNOWN_SIM_READ",
     "KnownIssue",
     "Violation",
@@ -88,7 +86,6 @@ class KnownIssue(Violation):
         super().__init__(f"[known: {key}] {message}")
 
 
-KNOWN_OVERLONG = "frame: an overlong frame's report depends on the split"
 KNOWN_SIM_READ = "sim: request and more in one read"
 KNOWN_COORD_DECIMALS = "fields: a coordinate with more than 3 decimals is accepted"
 _MORE_DECIMALS = re.compile(rb"\.\d{4}")
@@ -137,10 +134,7 @@ def check_frames(stream: bytes, cuts: Sequence[int] = ()) -> list[FrameEvent]:
     whole, _ = _feed([stream])
     pieces, _ = _feed(split(stream, cuts))
     if whole != pieces:
-        message = f"events depend on the split: {whole!r} != {pieces!r}"
-        if _overlong_alike(whole) == _overlong_alike(pieces):
-            raise KnownIssue(KNOWN_OVERLONG, message)
-        raise Violation(message)
+        raise Violation(f"events depend on the split: {whole!r} != {pieces!r}")
     for event in whole:
         _check_event(event)
         if isinstance(event, Packet):
@@ -155,21 +149,6 @@ def check_frames(stream: bytes, cuts: Sequence[int] = ()) -> list[FrameEvent]:
 
 _OVERLONG_RAW = MAX_PACKET - 1
 """STX and 248 data bytes: the shortest frame that is over the limit."""
-
-
-def _overlong_alike(events: list[FrameEvent]) -> list[FrameEvent]:
-    """Events with every overlong frame reported alike: TOO_LONG with its first 249 bytes.
-
-    The known bug: FrameDecoder checks the limit per read, so an overlong frame is TOO_LONG
-    with as many bytes as the read held, or TRUNCATED when the next STX came in the same read.
-    """
-    return [
-        CorruptPacket(CorruptReason.TOO_LONG, e.raw[:_OVERLONG_RAW])
-        if isinstance(e, CorruptPacket)
-        and (e.reason is CorruptReason.TOO_LONG or len(e.raw) >= _OVERLONG_RAW)
-        else e
-        for e in events
-    ]
 
 
 def check_resync(garbage: bytes, first: bytes, second: bytes, cuts: Sequence[int] = ()) -> None:

@@ -6,13 +6,11 @@ damaged packet through, and find good packets again right after any garbage.
 
 from __future__ import annotations
 
-import contextlib
-
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from reliability.samples import SAMPLES
-from reliability.targets import KnownIssue, Violation, check_frames, check_resync
+from reliability.targets import Violation, check_frames, check_resync
 
 from robostar.errors import FrameError
 from robostar.protocol.frame import (
@@ -63,20 +61,16 @@ def mutated_stream(draw: st.DrawFn) -> bytes:
     return bytes(stream)
 
 
-# The known split dependence of a TOO_LONG frame's raw bytes is pinned by its own strict xfail
-# below; these properties look for anything else.
 @settings(max_examples=400, deadline=None)
 @given(garbage, cuts)
 def test_arbitrary_bytes_in_any_split(stream: bytes, where: list[int]) -> None:
-    with contextlib.suppress(KnownIssue):
-        check_frames(stream, where)
+    check_frames(stream, where)
 
 
 @settings(max_examples=400, deadline=None)
 @given(mutated_stream(), cuts)
 def test_mutated_packets_in_any_split(stream: bytes, where: list[int]) -> None:
-    with contextlib.suppress(KnownIssue):
-        check_frames(stream, where)
+    check_frames(stream, where)
 
 
 @settings(max_examples=400, deadline=None)
@@ -122,13 +116,6 @@ def test_the_resync_checker_reports_a_lost_packet() -> None:
         check_resync(b"", VALID[1], spoiled)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="frame bug: FrameDecoder.feed checks the 250-byte limit once per read, after "
-    "copying a whole run of data: an overlong frame is TOO_LONG with as many bytes as the read "
-    "held, or TRUNCATED (not NAKed) when the next STX came in the same read; the events "
-    "depend on the split (found by atheris)",
-)
 @pytest.mark.parametrize(
     ("stream", "cut"),
     [

@@ -164,24 +164,29 @@ class FrameDecoder:
                 else:
                     self.discarded += 1
             elif state is _State.DATA:
-                # Copy a run of data bytes at once up to the next ETX or STX.
+                # Copy a run of data bytes at once up to the next ETX or STX, but never past the
+                # byte that makes the frame too long: the verdict must not depend on how the
+                # bytes were split into reads.
                 etx = view.find(b"\x03", i)
                 stx = view.find(b"\x02", i)
                 stop = n if etx < 0 else etx
                 if 0 <= stx < stop:
-                    buf += view[i:stx]
-                    events.append(CorruptPacket(CorruptReason.TRUNCATED, bytes((STX, *buf))))
-                    buf.clear()
-                    i = stx + 1
-                    continue
-                buf += view[i:stop]
-                i = stop
-                if len(buf) > _MAX_DATA:
+                    stop = stx
+                room = _MAX_DATA - len(buf)
+                if stop - i > room:
+                    buf += view[i : i + room + 1]
+                    i += room + 1
                     events.append(CorruptPacket(CorruptReason.TOO_LONG, bytes((STX, *buf))))
                     buf.clear()
                     state = _State.SKIP
                     continue
-                if etx >= 0:
+                buf += view[i:stop]
+                i = stop
+                if stop == stx:
+                    events.append(CorruptPacket(CorruptReason.TRUNCATED, bytes((STX, *buf))))
+                    buf.clear()
+                    i = stx + 1
+                elif stop == etx:
                     i = etx + 1
                     state = _State.LRC
             elif state is _State.LRC:
