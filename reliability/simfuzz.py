@@ -9,7 +9,7 @@ damaged frame and never stops answering.
 
 from __future__ import annotations
 
-from reliability.targets import KNOWN_SIM_READ, KnownIssue, Violation
+from reliability.targets import Violation
 from robostar.commands.status import ReadStatus
 from robostar.protocol.frame import ACK, CorruptPacket, FrameDecoder, Packet, encode_packet
 from robostar.protocol.link import AnswerReceived, ExchangeComplete, ExchangeFailed, HostLink
@@ -40,10 +40,7 @@ class SimHarness:
         try:
             self.sim.receive_data(data, self.now)
         except Exception as exc:
-            message = f"VirtualController.receive_data({data!r}) raised {exc!r}"
-            if "cannot take send_answer" in str(exc):
-                raise KnownIssue(KNOWN_SIM_READ, message) from exc
-            raise Violation(message) from exc
+            raise Violation(f"VirtualController.receive_data({data!r}) raised {exc!r}") from exc
 
     def settle(self) -> None:
         """ACK every intact packet as a host does; let every timer run out."""

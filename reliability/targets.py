@@ -9,7 +9,6 @@ The hypothesis tests, the long-run fuzzer and the atheris harness all call these
 from __future__ import annotations
 
 import itertools
-import re
 from collections.abc import Sequence
 from typing import Any
 
@@ -43,8 +42,6 @@ from robostar.protocol.link import (
 )
 
 __all__ = [
-    "KNOWN_COORD_DECIMALS",
-    "KNOWN_SIM_READ",
     "KnownIssue",
     "Violation",
     "check_answer",
@@ -84,11 +81,6 @@ class KnownIssue(Violation):
     def __init__(self, key: str, message: str) -> None:
         self.key = key
         super().__init__(f"[known: {key}] {message}")
-
-
-KNOWN_SIM_READ = "sim: request and more in one read"
-KNOWN_COORD_DECIMALS = "fields: a coordinate with more than 3 decimals is accepted"
-_MORE_DECIMALS = re.compile(rb"\.\d{4}")
 
 
 def split(stream: bytes, cuts: Sequence[int]) -> list[bytes]:
@@ -206,10 +198,7 @@ def check_request(data: bytes) -> str:
         # controller decoded must still be one a host could have sent.
         raise Violation(f"{command!r} decoded from {data!r} does not re-encode: {exc!r}") from exc
     if again != command:
-        message = f"{data!r} -> {command!r} -> {again!r}: not stable"
-        if _MORE_DECIMALS.search(data):
-            raise KnownIssue(KNOWN_COORD_DECIMALS, message)
-        raise Violation(message)
+        raise Violation(f"{data!r} -> {command!r} -> {again!r}: not stable")
     return type(command).__name__
 
 

@@ -18,6 +18,7 @@ from robostar.client.exchange import Exchange, Outcome
 from robostar.commands.base import Command, make_answer
 from robostar.commands.control import SetSpeed
 from robostar.commands.files import DownloadFile, UploadFile, format_point_line
+from robostar.commands.job import Servo
 from robostar.commands.status import ReadPosition, ReadStatus
 from robostar.commands.system import ReadLastError
 from robostar.errors import (
@@ -112,11 +113,32 @@ def test_other_error_flags_need_no_kd(flag: int, kind: type[Exception]) -> None:
 
 
 def test_an_answer_that_does_not_decode_is_malformed() -> None:
-    _, error = drive(ReadPosition(1), [Outcome((ok(b"12"),))])
+    # A read is asked once more (the bad answer may be a stale one), then it is an error.
+    bad = Outcome((ok(b"12"),))
+    requests, error = drive(ReadPosition(1), [bad, bad], Policy(0.5, 1))
+    assert requests == [ReadPosition(1), ReadPosition(1)]
     assert isinstance(error, MalformedAnswerError) and error.command == "AC"
-    _, error = drive(ReadStatus(), [Outcome((make_answer(0x30, b"\x84\x84\x00"),))])
+    garbled = Outcome((make_answer(0x30, b"\x84\x84\x00"),))
+    requests, error = drive(ReadStatus(), [garbled, garbled], Policy(0.5, 1))
+    assert len(requests) == 2
     assert isinstance(error, MalformedAnswerError)
     assert isinstance(error.__cause__, FieldError)
+
+
+def test_a_read_whose_answer_does_not_decode_is_asked_again() -> None:
+    # A stale bare "0" (another command's answer resent late) reaches AA first.
+    requests, result = drive(ReadStatus(), [Outcome((ok(),)), Outcome((STATUS_OK,))])
+    assert requests == [ReadStatus(), ReadStatus()]
+    assert isinstance(result, tuple)
+    requests, error = drive(ReadStatus(), [Outcome((ok(),))], Policy(0.5, 0))
+    assert len(requests) == 1 and isinstance(error, MalformedAnswerError)
+
+
+def test_a_state_change_whose_answer_does_not_decode_has_an_unknown_outcome() -> None:
+    requests, error = drive(Servo(1, True), [Outcome((ok(b"x"), ok()))])
+    assert requests == [Servo(1, True)]
+    assert isinstance(error, OutcomeUnknownError) and error.command == "DB"
+    assert isinstance(error.__cause__, MalformedAnswerError)
 
 
 # -- lost answers: reads are retried, state changes never resent --------------------------------
@@ -154,10 +176,16 @@ def test_a_state_change_is_never_resent() -> None:
     ],
 )
 def test_line_failures_become_typed_errors(failure: Outcome, kind: type[Exception]) -> None:
-    for command in (ReadStatus(), SetSpeed(1, 5)):
-        requests, error = drive(command, [failure])
-        assert len(requests) == 1
-        assert type(error) is kind
+    requests, error = drive(ReadStatus(), [failure])
+    assert len(requests) == 1
+    assert type(error) is kind
+    # Once the request was out, an RST or an abort says nothing of whether a state change was
+    # carried out; only NAKs for the request itself prove it was not taken.
+    requests, error = drive(SetSpeed(1, 5), [failure])
+    assert len(requests) == 1
+    expected = NakLimitError if kind is NakLimitError else OutcomeUnknownError
+    assert type(error) is expected
+    assert error.command == "CB"
 
 
 def test_a_broken_rule_raises_the_links_error() -> None:

@@ -32,40 +32,9 @@ from robostar.sim.faults import Direction, FaultKind
 
 CONFIG = MatrixConfig()
 
-SIM_READ = (
-    "sim bug: VirtualController.receive_data gives the whole read to ControllerLink before "
-    "answering; a delayed request released together with the host's RST behind it ends in "
-    "send_answer in LISTEN, and LinkRuleError escapes the simulator"
-)
-LATE = (
-    "client bug: an answer held past the timeout arrives during the next exchange and is "
-    "taken as its answer (no settling after a timeout; Client._drain reads only what is "
-    "already there)"
-)
-STRAY = (
-    "link bug: HostLink._h_stray_packet ACKs any packet while idle, so after an RST the "
-    "controller's abandoned multi-packet answer runs on into the next exchange"
-)
-BURST = (
-    "client bug, wrong result: the retry after a timeout meets the first attempt's delayed "
-    "resends in one burst; HostLink._is_resend (timing, resend_gap) takes them as new AB "
-    "packets and alarms come back duplicated"
-)
-TC, TH = Direction.TO_CONTROLLER.value, Direction.TO_HOST.value
-KNOWN: dict[tuple[str, str, str], str] = {
-    ("AA", "delay", TC): SIM_READ,
-    ("AB", "delay", TC): f"{SIM_READ}; {LATE}",
-    ("AB", "delay", TH): BURST,
-    ("AB", "RST", TH): STRAY,
-    ("FA", "RST", TH): STRAY,
-    ("FA", "delay", TC): f"{SIM_READ}; {LATE}",
-    ("FB", "delay", TC): SIM_READ,
-    ("FB", "delay", TH): LATE,
-    **{(code, "delay", TC): f"{SIM_READ}; {LATE}" for code in ("BD", "CC", "DB", "GW")},
-    **{(code, "delay", TH): LATE for code in ("BD", "CC", "DB", "GW")},
-}
-"""Rows with violations, and why (see docs/reliability.md, "Bugs found"); the CI slice and
-the full matrix find violations in the same rows."""
+KNOWN: dict[tuple[str, str, str], str] = {}
+"""Rows with violations, and why (see docs/reliability.md, "Bugs found"); empty since the
+five bugs the matrix found were fixed. A new one goes here as a strict xfail with its cause."""
 
 
 def _id(row: tuple[Case, Fault, Direction]) -> str:
@@ -137,7 +106,6 @@ def test_the_virtual_clock_agrees_with_real_time(
     assert real.outcome == virtual.outcome == "ok", (real, virtual)
 
 
-@pytest.mark.xfail(strict=True, reason=f"wrong result: {LATE}")
 def test_a_late_answer_is_never_taken_for_the_next_commands_result() -> None:
     # GW's answer is held 1.5 timeouts on its way (the write was done: OutcomeUnknownError).
     # The next command, CC on a channel with no job, is refused by the controller (0x32); the

@@ -16,7 +16,6 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from reliability.samples import SAMPLES, Sample
 from reliability.targets import (
-    KnownIssue,
     check_answer,
     check_controller_link,
     check_host_link,
@@ -132,12 +131,10 @@ REQUESTS = tuple(s.command.encode() for s in SAMPLES)
 HEADS = sorted({r[:3] for r in REQUESTS})
 
 
-# The known acceptance of a 4th decimal is pinned by its own strict xfail below.
 @settings(max_examples=500, deadline=None)
 @given(st.one_of(st.binary(max_size=80), st.sampled_from(REQUESTS).flatmap(mutated_bytes)))
 def test_the_request_decoder_takes_any_data(data: bytes) -> None:
-    with contextlib.suppress(KnownIssue):
-        check_request(data)
+    check_request(data)
 
 
 @settings(max_examples=300, deadline=None)
@@ -146,16 +143,9 @@ def test_the_request_decoder_takes_any_data(data: bytes) -> None:
     st.binary(max_size=70),
 )
 def test_the_request_decoder_takes_any_params(head: bytes, params: bytes) -> None:
-    with contextlib.suppress(KnownIssue):
-        check_request(head + params)
+    check_request(head + params)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="fields gap: parse_coord's docstring says up to 3 decimals, its pattern takes any "
-    "number, so the controller side accepts BD delta 0.0004, which no host can send (found by "
-    "the long fuzz run)",
-)
 def test_a_coordinate_with_four_decimals_is_refused() -> None:
     with pytest.raises(FieldError):
         decode_request(b"\xffBD000     1.00     0.000     0.000     0.0004")

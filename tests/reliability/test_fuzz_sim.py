@@ -58,13 +58,6 @@ def test_the_simulator_takes_bytes_one_at_a_time(harness: SimHarness, parts: lis
     harness.probe()
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="sim bug: VirtualController.receive_data feeds the whole read to ControllerLink "
-    "before answering; a RST or a second request in the same read moves the link back to "
-    "LISTEN and the pending RequestReceived then calls send_answer in LISTEN "
-    "(LinkRuleError escapes; the server thread dies)",
-)
 @pytest.mark.parametrize(
     "chunk",
     [

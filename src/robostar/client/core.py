@@ -15,7 +15,8 @@ from robostar.client.exchange import Exchange, Outcome, Progress
 from robostar.client.surface import Operations
 from robostar.client.trace import TraceTarget, WireTrace
 from robostar.commands.base import Command
-from robostar.errors import OutcomeUnknownError, PortError, UsageError
+from robostar.commands.files import UploadFile
+from robostar.errors import OutcomeUnknownError, PortError, UploadIncompleteError, UsageError
 from robostar.protocol.link import HostLink
 from robostar.transport import AsyncTransport, Transport
 
@@ -100,7 +101,10 @@ class ClientBase(Operations):
         return self.settings.timeout
 
     def _new_link(self) -> HostLink:
-        return HostLink(timeout=self.settings.timeout)
+        # After an RST the line must stay quiet for a whole reply timeout before the next
+        # request: an answer a device server held back cannot then pass for the next one's.
+        timeout = self.settings.timeout
+        return HostLink(timeout=timeout, resync_gap=timeout)
 
     def _check_may_open(self) -> None:
         """Raise unless the line may be (re)opened now: not closed, and not lost without
@@ -117,6 +121,9 @@ class ClientBase(Operations):
         """The error for a line lost mid-exchange: the request may have reached the controller,
         so a state-changing command's outcome is unknown."""
         self._link = self._new_link()
+        if written and isinstance(command, UploadFile):
+            # An upload cut off mid-way is never complete; the caller may upload it again.
+            return UploadIncompleteError(f"FB {command.file}: the line was lost: {exc}")
         if written and command.CHANGES_STATE:
             return OutcomeUnknownError(command.CODE, f"the line was lost: {exc}")
         return exc

@@ -97,6 +97,10 @@ def failure_error(command: Command[Any], failure: ExchangeFailed, policy: Policy
         return NakLimitError(code, MAX_NAKS + 1)
     if reason is FailReason.RULE:
         return failure.error or LinkRuleError("host", failure.state.value, "packet", failure.detail)
+    if command.CHANGES_STATE and failure.state is not State.RESYNC:
+        # The request was out: an RST (or a superseded exchange) says nothing of whether the
+        # controller carried it out.
+        return OutcomeUnknownError(code, failure.detail or reason.value)
     return LinkResetError(code, failure.detail or reason.value)
 
 
@@ -112,7 +116,21 @@ def command_plan(command: Command[T], policy: Policy) -> CommandPlan[T]:
         if failure is None:
             if outcome.flag is not None:
                 raise (yield from _flag_error(command.CODE, outcome.flag))
-            return decode(command, outcome.packets)
+            try:
+                return decode(command, outcome.packets)
+            except MalformedAnswerError as exc:
+                # An answer that does not fit the request is most likely a stale one: the
+                # controller resending an earlier answer whose ACK reached it late (or an FA
+                # download that lost a packet). A read is asked again; for a state-changing
+                # command nobody can tell whether it was carried out.
+                if command.CHANGES_STATE:
+                    raise OutcomeUnknownError(
+                        command.CODE, f"its answer did not decode: {exc}"
+                    ) from exc
+                if attempt < policy.retries:
+                    attempt += 1
+                    continue
+                raise
         retry = failure.reason is FailReason.TIMEOUT and not command.CHANGES_STATE
         if retry and attempt < policy.retries:
             attempt += 1

@@ -145,8 +145,8 @@ def parse_int(command: str, field: str, raw: bytes, *, flag: int = FLAG_REJECTED
 def parse_coord(command: str, field: str, raw: bytes) -> float:
     """A coordinate field (spaces stripped, up to 3 decimals)."""
     text = raw.decode("ascii", "replace").strip()
-    if not re.fullmatch(r"[+-]?(\d+(\.\d*)?|\.\d+)", text):
-        raise FieldError(command, field, f"{raw!r} is not a number")
+    if not re.fullmatch(r"[+-]?(\d+(\.\d{0,3})?|\.\d{1,3})", text):
+        raise FieldError(command, field, f"{raw!r} is not a number with up to 3 decimals")
     return float(text)
 
 

@@ -243,10 +243,6 @@ TRANSITIONS: dict[tuple[Role, State, Input], str] = {
     (_H, State.UPLOAD_WAIT_REPLY, Input.ABORT): "_abort",
     (_H, State.UPLOAD_READY, Input.SEND_LINE): "_h_send_line",
     (_H, State.UPLOAD_READY, Input.SEND_END): "_h_send_end",
-    (_H, State.UPLOAD_READY, Input.ACK): "_ignore",
-    (_H, State.UPLOAD_READY, Input.NAK): "_ignore",
-    (_H, State.UPLOAD_READY, Input.CORRUPT): "_ignore",
-    (_H, State.UPLOAD_READY, Input.RST): "_reset_by_peer",
     (_H, State.UPLOAD_READY, Input.ABORT): "_abort",
     (_H, State.UPLOAD_WAIT_ACK, Input.ACK): "_h_upload_done",
     (_H, State.UPLOAD_WAIT_ACK, Input.PACKET): "_h_upload_final_reply",
@@ -256,8 +252,8 @@ TRANSITIONS: dict[tuple[Role, State, Input], str] = {
     (_H, State.UPLOAD_WAIT_ACK, Input.TIMEOUT): "_h_timeout",
     (_H, State.UPLOAD_WAIT_ACK, Input.ABORT): "_abort",
     (_H, State.RESYNC, Input.SEND_REQUEST): "_h_defer_request",
-    (_H, State.RESYNC, Input.PACKET): "_h_stray_packet",
-    (_H, State.RESYNC, Input.CORRUPT): "_ignore",
+    (_H, State.RESYNC, Input.PACKET): "_h_resync_packet",
+    (_H, State.RESYNC, Input.CORRUPT): "_h_resync_noise",
     (_H, State.RESYNC, Input.ACK): "_ignore",
     (_H, State.RESYNC, Input.NAK): "_ignore",
     (_H, State.RESYNC, Input.RST): "_ignore",
@@ -271,10 +267,6 @@ TRANSITIONS: dict[tuple[Role, State, Input], str] = {
     (_C, State.LISTEN, Input.RST): "_ignore",
     (_C, State.LISTEN, Input.ABORT): "_ignore",
     (_C, State.HANDLING, Input.SEND_ANSWER): "_c_send_answer",
-    (_C, State.HANDLING, Input.RST): "_reset_by_peer",
-    (_C, State.HANDLING, Input.ACK): "_ignore",
-    (_C, State.HANDLING, Input.NAK): "_ignore",
-    (_C, State.HANDLING, Input.CORRUPT): "_nak_corrupt",
     (_C, State.HANDLING, Input.ABORT): "_abort",
     (_C, State.WAIT_ACK, Input.ACK): "_c_acked",
     (_C, State.WAIT_ACK, Input.NAK): "_resend",
@@ -299,13 +291,17 @@ TRANSITIONS: dict[tuple[Role, State, Input], str] = {
     (_C, State.UPLOAD_WAIT_PACKET, Input.ABORT): "_abort",
     (_C, State.UPLOAD_HANDLING, Input.SEND_ANSWER): "_c_send_answer",
     (_C, State.UPLOAD_HANDLING, Input.ACCEPT_UPLOAD): "_c_accept_upload",
-    (_C, State.UPLOAD_HANDLING, Input.RST): "_reset_by_peer",
-    (_C, State.UPLOAD_HANDLING, Input.ACK): "_ignore",
-    (_C, State.UPLOAD_HANDLING, Input.NAK): "_ignore",
-    (_C, State.UPLOAD_HANDLING, Input.CORRUPT): "_nak_corrupt",
     (_C, State.UPLOAD_HANDLING, Input.ABORT): "_abort",
 }
-"""Every allowed (role, state, input) and its handler; anything else breaks a rule."""
+"""Every allowed (role, state, input) and its handler; anything else breaks a rule.
+
+Line input never reaches the application's-turn states (:data:`APP_TURN`): it waits there."""
+
+APP_TURN = frozenset((State.HANDLING, State.UPLOAD_HANDLING, State.UPLOAD_READY))
+"""States where the application holds the exchange (it must answer, or send the next upload
+packet). Bytes that arrive meanwhile — even in the same read as the request — are held and
+taken in order once the application has acted, as h11 pauses while a request is served: an RST
+or a second request right behind a request must not pull the exchange from under the answer."""
 
 _CONTROL_INPUT = {
     ControlKind.ACK: Input.ACK,
@@ -340,13 +336,14 @@ class Link:
         self._resends = 0  # controller: timeout resends of _last_sent
         self._last_received = b""  # host: last answer data, for resend detection
         self._last_ack_at = 0.0
+        self._backlog: list[FrameEvent] = []  # line input held during the application's turn
 
     # -- driver interface ------------------------------------------------------------------
     def receive_data(self, data: bytes, now: float) -> list[LinkEvent]:
         """Feed bytes from the line."""
         self._now = now
-        for event in self.decoder.feed(data):
-            self._dispatch_frame(event)
+        self._backlog.extend(self.decoder.feed(data))
+        self._take_backlog()
         return self._take_events()
 
     def data_to_send(self) -> bytes:
@@ -371,6 +368,7 @@ class Link:
         """End the current exchange at once by sending RST (Ctrl-C, a jog that must stop)."""
         self._now = now
         self._fire(Input.ABORT, b"")
+        self._take_backlog()
         return self._take_events()
 
     @property
@@ -384,6 +382,11 @@ class Link:
         return self.state not in (self._idle, State.RESYNC)
 
     # -- table dispatch --------------------------------------------------------------------
+    def _take_backlog(self) -> None:
+        """Dispatch held line input until the application's turn comes (or nothing is left)."""
+        while self._backlog and self.state not in APP_TURN:
+            self._dispatch_frame(self._backlog.pop(0))
+
     def _dispatch_frame(self, event: FrameEvent) -> None:
         if isinstance(event, Packet):
             self._fire(Input.PACKET, event.data)
@@ -504,9 +507,11 @@ class HostLink(Link):
     """The PC's end: sends requests, ACKs answers, runs FB uploads.
 
     Two guards keep a faulty line from making a command run twice or an answer land on the
-    wrong request. After this end sends RST it stays quiet for ``resync_gap`` seconds (state
-    RESYNC): stale packets still in flight are ACKed and dropped, a NAK for an old frame is
-    ignored, and a new request waits until the gap is over. And after ACKing a packet that is
+    wrong request. After this end sends RST it stays quiet until the line has been silent for
+    ``resync_gap`` seconds (state RESYNC): a stale packet still in flight is answered with RST
+    and restarts the gap, a NAK for an old frame is ignored, and a new request waits until the
+    gap is over. (The client sets the gap to its reply timeout, so an answer held back by a
+    device server for up to twice the timeout cannot land on the next request.) And after ACKing a packet that is
     not the last, it waits ``timeout + resend_grace`` for the next one, so that a controller
     resending after its own timeout (our ACK was lost) is heard before we give up.
     """
@@ -527,6 +532,7 @@ class HostLink(Link):
         self.resend_grace = resend_grace
         self.shape = Shape.SINGLE
         self._deferred: tuple[bytes, Shape] | None = None
+        self._request_at = 0.0
 
     # -- application calls -----------------------------------------------------------------
     def send_request(self, data: bytes, shape: Shape, now: float) -> list[LinkEvent]:
@@ -534,25 +540,28 @@ class HostLink(Link):
         self._now = now
         self._pending_shape = shape
         self._fire(Input.SEND_REQUEST, data)
+        self._take_backlog()
         return self._take_events()
 
     def send_upload_line(self, body: bytes, now: float) -> list[LinkEvent]:
         """FB: send one content packet (``0x30`` + body) after :class:`UploadReady`."""
         self._now = now
         self._fire(Input.SEND_LINE, body)
+        self._take_backlog()
         return self._take_events()
 
     def send_upload_end(self, now: float) -> list[LinkEvent]:
         """FB: send the closing 0x34 packet; a lone ACK completes the upload."""
         self._now = now
         self._fire(Input.SEND_END, b"")
+        self._take_backlog()
         return self._take_events()
 
     # -- handlers --------------------------------------------------------------------------
     def _h_send_request(self, data: bytes) -> None:
         self.shape = self._pending_shape
         self._corrupt = 0
-        self._last_received = b""
+        self._request_at = self._now
         self._send_packet(data)
         self.state = State.UPLOAD_WAIT_REPLY if self.shape is Shape.UPLOAD else State.WAIT_ANSWER
         self._arm(self.timeout)
@@ -581,19 +590,44 @@ class HostLink(Link):
             self._h_send_request(deferred[0])
 
     def _h_stray_packet(self, data: bytes) -> None:
-        # An intact packet outside an exchange: the controller resending an answer whose ACK
-        # was lost. ACK it so that it stops.
+        # An intact packet outside an exchange. A copy of the last answer we ACKed is the
+        # controller resending it (our ACK was lost): ACK it again so that it stops. Anything
+        # else belongs to an exchange we gave up (a multi-packet answer still coming): RST, so
+        # that it stops instead of running into our next request.
         self._good_packet()
-        self._send_control(ACK)
-        self._emit(Ignored("packet outside an exchange (ACKed)", self.state))
+        if data == self._last_received:
+            self._send_control(ACK)
+            self._emit(Ignored("resent answer outside an exchange (ACKed again)", self.state))
+        else:
+            self._send_control(RST)
+            self._emit(Ignored("stale packet outside an exchange (RST)", self.state))
+
+    def _h_resync_packet(self, data: bytes) -> None:
+        # A packet of the exchange we just reset is still coming: stop it, and wait for the
+        # line to be quiet for the whole gap again before the next request goes out.
+        self._good_packet()
+        self._send_control(RST)
+        self._arm(self.resync_gap)
+        self._emit(Ignored("stale packet in the resync gap (RST)", self.state))
+
+    def _h_resync_noise(self, data: bytes) -> None:
+        self._arm(self.resync_gap)
+        self._emit(Ignored("corrupt frame in the resync gap", self.state))
 
     def _is_resend(self, data: bytes) -> bool:
-        if data != self._last_received or self.state is State.WAIT_ANSWER:
+        if data != self._last_received:
             return False
+        late = self._now - self._last_ack_at >= self.resend_gap
+        if self.state is State.WAIT_ANSWER:
+            # A copy of the previous exchange's last answer, arriving late, while our request
+            # went out right behind our ACK of it: the controller did not get that ACK in time
+            # and is resending (it resends only after its own timeout). A request sent later,
+            # or an answer that comes at once, is new.
+            return late and self._request_at - self._last_ack_at < self.resend_gap
         if self.state is State.WAIT_SECOND and len(split_answer(data).body) == 0:
             # CE's two answers are both a bare flag: a copy is the second answer, not a resend.
             return False
-        return self._now - self._last_ack_at >= self.resend_gap
+        return late
 
     def _ack(self, data: bytes) -> None:
         self._send_control(ACK)
@@ -719,12 +753,14 @@ class ControllerLink(Link):
         self._now = now
         self._pending = (list(packets), after)
         self._fire(Input.SEND_ANSWER, b"")
+        self._take_backlog()
         return self._take_events()
 
     def accept_upload(self, now: float) -> list[LinkEvent]:
         """FB: the closing 0x34 was stored; answer with a lone ACK."""
         self._now = now
         self._fire(Input.ACCEPT_UPLOAD, b"")
+        self._take_backlog()
         return self._take_events()
 
     # -- handlers --------------------------------------------------------------------------
