@@ -5,28 +5,57 @@ A command class is the request. It encodes itself (host side) and decodes itself
 its exchange into a typed result (host side) and encodes a result into answer packets
 (controller side). Answer packets are handed over whole, as the link delivered them, flag first
 (after the optional dummy byte); error flags never reach ``decode_answer``.
+
+Besides :class:`Command`, the building blocks the groups share: request mixins (:class:`NoParams`,
+:class:`ChannelOnly`), answer bases (:class:`NoData`, :class:`NumberAnswer`), the
+:class:`NumberField` codec and helpers for file names and axis values.
 """
 
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from collections.abc import Sequence
-from typing import ClassVar, Generic, Self, TypeVar
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, ClassVar, Generic, Self, TypeVar
 
 from robostar.errors import FieldError, MalformedAnswerError
-from robostar.protocol.fields import FLAG_END, FLAG_OK, Reader
+from robostar.protocol.fields import (
+    COORD_WIDTH,
+    FLAG_END,
+    FLAG_OK,
+    FLAG_REJECTED,
+    FileName,
+    Reader,
+    encode_channel,
+    encode_coord,
+    encode_int,
+)
 from robostar.protocol.packets import AnswerPacket, Shape, make_answer, split_answer
 
 __all__ = [
+    "FILE_NAME_WIDTH",
     "AnswerPacket",
+    "ChannelOnly",
     "Command",
     "NoData",
+    "NoParams",
+    "NumberAnswer",
+    "NumberField",
     "Shape",
+    "encode_axes",
+    "encode_file_of_kind",
+    "file_arg",
     "make_answer",
+    "read_axes",
+    "read_file_of_kind",
+    "set_fields",
     "split_answer",
 ]
 
 T = TypeVar("T")
+
+FILE_NAME_WIDTH = 12
+"""A file name field: 12 bytes, as :meth:`FileName.encode` writes it."""
 
 
 class Command(ABC, Generic[T]):
@@ -41,7 +70,8 @@ class Command(ABC, Generic[T]):
     - ``ANSWER_DUMMY``: True when the manual's answer starts with ``FF`` before the flag;
 
     and implement ``encode_params``/``decode_params`` (the request after ``FF G1 G2``) and
-    ``decode_answer``/``encode_answer`` (the answer packets, host and controller side).
+    ``decode_answer``/``encode_answer`` (the answer packets, host and controller side), or
+    take them from the mixins and bases below.
     """
 
     CODE: ClassVar[str]
@@ -109,11 +139,23 @@ class Command(ABC, Generic[T]):
             )
         return Reader(self.CODE, answer.body)
 
+    def expect_packets(self, packets: Sequence[bytes], count: int) -> None:
+        """Fail unless the answer is exactly ``count`` packets."""
+        if len(packets) != count:
+            were = "was" if count == 1 else "were"
+            raise MalformedAnswerError(
+                self.CODE, f"{len(packets)} packets where {count} {were} expected"
+            )
+
     def single(self, packets: Sequence[bytes]) -> Reader:
         """The Reader over a SINGLE exchange's only packet."""
-        if len(packets) != 1:
-            raise MalformedAnswerError(self.CODE, f"{len(packets)} packets where 1 was expected")
+        self.expect_packets(packets, 1)
         return self.reader(packets[0])
+
+    def bare_flags(self, packets: Sequence[bytes]) -> None:
+        """Fail unless every packet is a bare OK flag."""
+        for packet in packets:
+            self.reader(packet).end()
 
     def multi_bodies(self, packets: Sequence[bytes]) -> list[bytes]:
         """The bodies of a MULTI exchange's 0x30 packets, checking the closing 0x34."""
@@ -131,10 +173,131 @@ class Command(ABC, Generic[T]):
 
 
 class NoData(Command[None]):
-    """Base for commands whose answer is a bare flag."""
+    """Base for commands whose answer is a bare flag (one per phase, when two-phase)."""
+
+    def _phases(self) -> int:
+        return 2 if self.SHAPE is Shape.TWO_PHASE else 1
 
     def decode_answer(self, packets: Sequence[bytes]) -> None:
-        self.single(packets).end()
+        self.expect_packets(packets, self._phases())
+        self.bare_flags(packets)
 
     def encode_answer(self, result: None) -> list[bytes]:
-        return [self.ok()]
+        return [self.ok()] * self._phases()
+
+
+@dataclass(frozen=True, slots=True)
+class NumberField:
+    """A right-aligned number of ``width`` bytes in ``lo..hi``, written and read alike."""
+
+    name: str
+    width: int
+    lo: int
+    hi: int
+    pad: str = "0"
+
+    def encode(self, command: str, value: int) -> bytes:
+        return encode_int(
+            command, self.name, value, self.width, lo=self.lo, hi=self.hi, pad=self.pad
+        )
+
+    def read(self, reader: Reader) -> int:
+        return reader.number(self.width, self.name, lo=self.lo, hi=self.hi)
+
+
+class NumberAnswer(Command[int]):
+    """Base for commands whose answer is one number, the ``ANSWER`` field."""
+
+    ANSWER: ClassVar[NumberField]
+
+    def decode_answer(self, packets: Sequence[bytes]) -> int:
+        r = self.single(packets)
+        value = self.ANSWER.read(r)
+        r.end()
+        return value
+
+    def encode_answer(self, result: int) -> list[bytes]:
+        return [self.ok(self.ANSWER.encode(self.CODE, result))]
+
+
+# Request mixins: put them before the Command base, so their methods are the ones used.
+class NoParams:
+    """Mixin for a request with no fields after ``FF G1 G2``."""
+
+    __slots__ = ()
+
+    def encode_params(self) -> bytes:
+        return b""
+
+    @classmethod
+    def decode_params(cls, reader: Reader) -> Self:
+        return cls()
+
+
+class ChannelOnly:
+    """Mixin for a request whose only field is ``channel`` (1-3, sent as ``'0'..'2'``)."""
+
+    __slots__ = ()
+    CODE: ClassVar[str]
+    channel: int
+
+    if TYPE_CHECKING:
+        # The dataclass mixing this in declares ``channel`` and generates the real __init__.
+        def __init__(self, channel: int) -> None: ...
+
+    def encode_params(self) -> bytes:
+        return encode_channel(self.CODE, self.channel)
+
+    @classmethod
+    def decode_params(cls, reader: Reader) -> Self:
+        return cls(reader.channel())
+
+
+# -- field helpers shared by several groups --------------------------------------------------
+def set_fields(obj: object, **values: object) -> None:
+    """Set a frozen request's fields (its ``__init__`` converts the arguments first)."""
+    for field, value in values.items():
+        object.__setattr__(obj, field, value)
+
+
+def file_arg(value: FileName | str) -> FileName:
+    """A file argument kept as a FileName, so that a request equals its decoded copy."""
+    return FileName.parse(value) if isinstance(value, str) else value
+
+
+def encode_file_of_kind(command: str, file: FileName, kind: str) -> bytes:
+    """BB's and DC's ``file``: a .JOB or .PNT (``kind``) name in 12 bytes, right-aligned.
+
+    A wrong case or kind is answered 0x31 by these two commands (0x32 elsewhere).
+    """
+    if not isinstance(file, FileName):
+        raise FieldError(command, "file", "must be a FileName or a str")
+    name = file.check(command, "file", kind=kind, case_flag=FLAG_REJECTED)
+    return name.encode(command, "file", FILE_NAME_WIDTH)
+
+
+def read_file_of_kind(reader: Reader, kind: str) -> FileName:
+    """Read the name :func:`encode_file_of_kind` writes, checked the same way."""
+    name = reader.name(FILE_NAME_WIDTH, "file")
+    return name.check(reader.command, "file", kind=kind, case_flag=FLAG_REJECTED)
+
+
+def _axis_field(field: str, axis: int) -> str:
+    return f"{field} axis {axis}" if field else f"axis {axis}"
+
+
+def encode_axes(
+    command: str, values: Iterable[float], field: str = "", width: int = COORD_WIDTH
+) -> bytes:
+    """Axis values side by side, ``width`` bytes each with 3 decimals (``"{field} axis N"``)."""
+    return b"".join(
+        encode_coord(command, _axis_field(field, axis), value, width)
+        for axis, value in enumerate(values, 1)
+    )
+
+
+def read_axes(
+    reader: Reader, count: int, field: str = "", width: int = COORD_WIDTH
+) -> tuple[float, ...]:
+    """Read ``count`` axis values written by :func:`encode_axes`."""
+    return tuple(reader.coord(_axis_field(field, axis), width) for axis in range(1, count + 1))

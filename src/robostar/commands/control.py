@@ -10,9 +10,17 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Self
 
-from robostar.commands.base import Command, NoData, Shape
-from robostar.errors import FieldError, MalformedAnswerError
-from robostar.protocol.fields import Reader, encode_channel, encode_int
+from robostar.commands.base import (
+    ChannelOnly,
+    Command,
+    NoData,
+    NoParams,
+    NumberAnswer,
+    NumberField,
+    Shape,
+)
+from robostar.errors import FieldError
+from robostar.protocol.fields import Reader, encode_channel
 
 __all__ = [
     "EmergencyStop",
@@ -31,6 +39,7 @@ __all__ = [
 SPEED_WIDTH = 4
 MAX_SPEED = 1000
 """1000 is 100 % of each axis's Mv."""
+SPEED = NumberField("speed", SPEED_WIDTH, 0, MAX_SPEED)
 REFERENCE_AXES = (1, 4)
 """CX/CZ: X (1) or W (4) is the reference for interpolated moves."""
 
@@ -46,27 +55,12 @@ def _read_reference_axis(reader: Reader) -> int:
 
 
 @dataclass(frozen=True, slots=True)
-class ReadSpeed(Command[int]):
+class ReadSpeed(ChannelOnly, NumberAnswer):
     """CA: read a channel's speed, 0-1000 (1000 = 100 % of Mv); answered as 4 digits."""
 
     CODE = "CA"
+    ANSWER = SPEED
     channel: int
-
-    def encode_params(self) -> bytes:
-        return encode_channel(self.CODE, self.channel)
-
-    @classmethod
-    def decode_params(cls, reader: Reader) -> Self:
-        return cls(reader.channel())
-
-    def decode_answer(self, packets: Sequence[bytes]) -> int:
-        r = self.single(packets)
-        speed = r.number(SPEED_WIDTH, "speed", lo=0, hi=MAX_SPEED)
-        r.end()
-        return speed
-
-    def encode_answer(self, result: int) -> list[bytes]:
-        return [self.ok(encode_int(self.CODE, "speed", result, SPEED_WIDTH, lo=0, hi=MAX_SPEED))]
 
 
 @dataclass(frozen=True, slots=True)
@@ -79,50 +73,34 @@ class SetSpeed(NoData):
     speed: int
 
     def encode_params(self) -> bytes:
-        return encode_channel(self.CODE, self.channel) + encode_int(
-            self.CODE, "speed", self.speed, SPEED_WIDTH, lo=0, hi=MAX_SPEED
-        )
+        return encode_channel(self.CODE, self.channel) + SPEED.encode(self.CODE, self.speed)
 
     @classmethod
     def decode_params(cls, reader: Reader) -> Self:
         channel = reader.channel()
-        return cls(channel, reader.number(SPEED_WIDTH, "speed", lo=0, hi=MAX_SPEED))
+        return cls(channel, SPEED.read(reader))
 
 
 @dataclass(frozen=True, slots=True)
-class StartJob(NoData):
+class StartJob(ChannelOnly, NoData):
     """CC: start the channel's selected job (DC first; fails before homing is done)."""
 
     CODE = "CC"
     CHANGES_STATE = True
     channel: int
 
-    def encode_params(self) -> bytes:
-        return encode_channel(self.CODE, self.channel)
-
-    @classmethod
-    def decode_params(cls, reader: Reader) -> Self:
-        return cls(reader.channel())
-
 
 @dataclass(frozen=True, slots=True)
-class StopJob(NoData):
+class StopJob(ChannelOnly, NoData):
     """CD: stop the channel's running job."""
 
     CODE = "CD"
     CHANGES_STATE = True
     channel: int
 
-    def encode_params(self) -> bytes:
-        return encode_channel(self.CODE, self.channel)
-
-    @classmethod
-    def decode_params(cls, reader: Reader) -> Self:
-        return cls(reader.channel())
-
 
 @dataclass(frozen=True, slots=True)
-class ResetJob(Command[None]):
+class ResetJob(ChannelOnly, NoData):
     """CE: set the channel's job back to its first step (MAIN); servo off only.
 
     Two-phase: a bare flag when the request is taken, another when the reset is done.
@@ -133,82 +111,38 @@ class ResetJob(Command[None]):
     CHANGES_STATE = True
     channel: int
 
-    def encode_params(self) -> bytes:
-        return encode_channel(self.CODE, self.channel)
-
-    @classmethod
-    def decode_params(cls, reader: Reader) -> Self:
-        return cls(reader.channel())
-
-    def decode_answer(self, packets: Sequence[bytes]) -> None:
-        if len(packets) != 2:
-            raise MalformedAnswerError(self.CODE, f"{len(packets)} packets where 2 were expected")
-        for packet in packets:
-            self.reader(packet).end()
-
-    def encode_answer(self, result: None) -> list[bytes]:
-        return [self.ok(), self.ok()]
-
 
 @dataclass(frozen=True, slots=True)
-class EmergencyStop(NoData):
+class EmergencyStop(NoParams, NoData):
     """CF: online emergency stop; raises the "Host Emergency" alarm, which CG clears."""
 
     CODE = "CF"
     CHANGES_STATE = True
 
-    def encode_params(self) -> bytes:
-        return b""
-
-    @classmethod
-    def decode_params(cls, reader: Reader) -> Self:
-        return cls()
-
 
 @dataclass(frozen=True, slots=True)
-class ResetAlarms(NoData):
+class ResetAlarms(NoParams, NoData):
     """CG: reset the controller's alarms."""
 
     CODE = "CG"
     CHANGES_STATE = True
 
-    def encode_params(self) -> bytes:
-        return b""
-
-    @classmethod
-    def decode_params(cls, reader: Reader) -> Self:
-        return cls()
-
 
 @dataclass(frozen=True, slots=True)
-class StopHoming(NoData):
+class StopHoming(ChannelOnly, NoData):
     """CI: stop a channel's homing (origin return)."""
 
     CODE = "CI"
     CHANGES_STATE = True
     channel: int
 
-    def encode_params(self) -> bytes:
-        return encode_channel(self.CODE, self.channel)
-
-    @classmethod
-    def decode_params(cls, reader: Reader) -> Self:
-        return cls(reader.channel())
-
 
 @dataclass(frozen=True, slots=True)
-class Restart(NoData):
+class Restart(NoParams, NoData):
     """CJ: restart the controller (servo off only), when CG cannot clear a fatal alarm."""
 
     CODE = "CJ"
     CHANGES_STATE = True
-
-    def encode_params(self) -> bytes:
-        return b""
-
-    @classmethod
-    def decode_params(cls, reader: Reader) -> Self:
-        return cls()
 
 
 @dataclass(frozen=True, slots=True)
@@ -233,18 +167,11 @@ class SetReferenceAxis(NoData):
 
 
 @dataclass(frozen=True, slots=True)
-class ReadReferenceAxis(Command[int]):
+class ReadReferenceAxis(ChannelOnly, Command[int]):
     """CZ: read the reference axis of interpolated moves: 1 (X) or 4 (W)."""
 
     CODE = "CZ"
     channel: int
-
-    def encode_params(self) -> bytes:
-        return encode_channel(self.CODE, self.channel)
-
-    @classmethod
-    def decode_params(cls, reader: Reader) -> Self:
-        return cls(reader.channel())
 
     def decode_answer(self, packets: Sequence[bytes]) -> int:
         r = self.single(packets)

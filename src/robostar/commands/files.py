@@ -13,7 +13,17 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Self
 
-from robostar.commands.base import Command, NoData, Shape
+from robostar.commands.base import (
+    FILE_NAME_WIDTH,
+    Command,
+    NoData,
+    NumberField,
+    Shape,
+    encode_axes,
+    file_arg,
+    read_axes,
+    set_fields,
+)
 from robostar.errors import FieldError, MalformedAnswerError
 from robostar.protocol.fields import (
     FLAG_FAILED,
@@ -22,7 +32,7 @@ from robostar.protocol.fields import (
     Reader,
     check_range,
     encode_channel,
-    encode_coord,
+    encode_code,
     encode_int,
     encode_text,
     parse_int,
@@ -44,11 +54,11 @@ __all__ = [
 
 STORAGE = b"0"
 """TYPE: backup RAM, the only storage an N1 has."""
-NAME_WIDTH = 12
 LINE_MAX = 100
 """Bytes of one file-content field, its newline included (the manual's tables count it)."""
 POINT_AXIS_WIDTH = 11
 MAX_POINT_NUMBER = 9999
+JOB_NUMBER = NumberField("job_number", 3, 0, 200)
 WILDCARDS = ("*", "*.*")
 ALARM_FILE = "alarm_history.txt"
 ALARM_FILE_WIDTH = 30
@@ -67,23 +77,24 @@ def _as_name(command: str, field: str, value: object) -> FileName:
     return value.check(command, field)
 
 
-def _file(value: FileName | str) -> FileName:
-    """A file argument kept as a FileName, so that a request equals its decoded copy."""
-    return FileName.parse(value) if isinstance(value, str) else value
-
-
-def _set(obj: object, **values: object) -> None:
-    """Set a frozen request's fields (its ``__init__`` converts the arguments first)."""
-    for field, value in values.items():
-        object.__setattr__(obj, field, value)
-
-
 def _read_storage(reader: Reader) -> None:
     reader.code("TYPE", 0, 0, flag=FLAG_UNSUPPORTED)
 
 
 def _read_name(reader: Reader, field: str = "file") -> FileName:
-    return reader.name(NAME_WIDTH, field).check(reader.command, field)
+    return reader.name(FILE_NAME_WIDTH, field).check(reader.command, field)
+
+
+def _file_head(command: str, channel: int, name: FileName) -> bytes:
+    """Channel, TYPE and a checked ``file``: how FA, FC and FE-FG requests start."""
+    return encode_channel(command, channel) + STORAGE + name.encode(command, "file")
+
+
+def _read_file_head(reader: Reader) -> tuple[int, FileName]:
+    """Read what :func:`_file_head` writes: the channel and the file name."""
+    channel = reader.channel()
+    _read_storage(reader)
+    return channel, _read_name(reader)
 
 
 def _line_bodies(command: str, lines: object) -> list[bytes]:
@@ -120,10 +131,7 @@ def format_point_line(number: int, point: Point, *, command: str = "FA") -> str:
     if not isinstance(point, Point):
         raise FieldError(command, "point", f"must be a Point, not {type(point).__name__}")
     check_range(command, f"point {number} axis count", len(point.axes), 1, 6)
-    axes = b"".join(
-        encode_coord(command, f"point {number} axis {i}", value, POINT_AXIS_WIDTH)
-        for i, value in enumerate(point.axes, 1)
-    )
+    axes = encode_axes(command, point.axes, f"point {number}", POINT_AXIS_WIDTH)
     arm = check_range(command, f"point {number} ARM", point.arm, 0, 2)
     used = "1" if point.used else "0"
     return f"P{number:04d}{axes.decode('ascii')}{arm:d}{used}"
@@ -139,7 +147,7 @@ def parse_point_line(
         raise FieldError(command, field, f"{text!r} is not 'P' + 4 digits + 11 x axes + ARM USED")
     r = Reader(command, raw, 1)
     number = r.number(4, f"{field} number", lo=0, hi=MAX_POINT_NUMBER)
-    axes = tuple(r.coord(f"{field} axis {i}", POINT_AXIS_WIDTH) for i in range(1, count + 1))
+    axes = read_axes(r, count, field, POINT_AXIS_WIDTH)
     arm = r.enum(f"{field} ARM", ArmForm)
     used = r.code(f"{field} USED", 0, 1)
     return number, Point(axes, arm, bool(used))
@@ -167,23 +175,16 @@ class DownloadFile(Command[JobFile | PointFile]):
     def __init__(
         self, channel: int, file: FileName | str, coords: CoordSystem = CoordSystem.ANGLE
     ) -> None:
-        _set(self, channel=channel, file=_file(file), coords=coords)
+        set_fields(self, channel=channel, file=file_arg(file), coords=coords)
 
     def encode_params(self) -> bytes:
         name = _as_name(self.CODE, "file", self.file)
-        coords = check_range(self.CODE, "coords", self.coords, 0, 1)
-        return (
-            encode_channel(self.CODE, self.channel)
-            + STORAGE
-            + name.encode(self.CODE, "file")
-            + b"%d" % coords
-        )
+        coords = encode_code(self.CODE, "coords", self.coords, 0, 1)
+        return _file_head(self.CODE, self.channel, name) + coords
 
     @classmethod
     def decode_params(cls, reader: Reader) -> Self:
-        channel = reader.channel()
-        _read_storage(reader)
-        name = _read_name(reader)
+        channel, name = _read_file_head(reader)
         return cls(channel, name, reader.enum("coords", CoordSystem))
 
     def _is_job(self) -> bool:
@@ -267,7 +268,7 @@ class UploadFile(Command[None]):
     ) -> None:
         if isinstance(lines, Sequence) and not isinstance(lines, str):
             lines = tuple(lines)
-        _set(self, channel=channel, file=_file(file), job_number=job_number, lines=lines)
+        set_fields(self, channel=channel, file=file_arg(file), job_number=job_number, lines=lines)
 
     def encode_params(self) -> bytes:
         name = _as_name(self.CODE, "file", self.file)
@@ -275,7 +276,7 @@ class UploadFile(Command[None]):
         return (
             encode_channel(self.CODE, self.channel)
             + STORAGE
-            + encode_int(self.CODE, "job_number", self.job_number, 3, lo=0, hi=200)
+            + JOB_NUMBER.encode(self.CODE, self.job_number)
             + name.encode(self.CODE, "file")
         )
 
@@ -283,7 +284,7 @@ class UploadFile(Command[None]):
     def decode_params(cls, reader: Reader) -> Self:
         channel = reader.channel()
         _read_storage(reader)
-        job_number = reader.number(3, "job_number", lo=0, hi=200)
+        job_number = JOB_NUMBER.read(reader)
         return cls(channel, _read_name(reader), job_number)
 
     def upload_bodies(self) -> list[bytes]:
@@ -316,8 +317,7 @@ class UploadFile(Command[None]):
         # The controller's replies (to the request and to each line) are all a bare FF 0x30.
         if not packets:
             raise MalformedAnswerError(self.CODE, "no reply")
-        for packet in packets:
-            self.reader(packet).end()
+        self.bare_flags(packets)
 
     def encode_answer(self, result: None) -> list[bytes]:
         return [self.ok()]
@@ -333,17 +333,15 @@ class FileExists(Command[bool]):
     file: FileName
 
     def __init__(self, channel: int, file: FileName | str) -> None:
-        _set(self, channel=channel, file=_file(file))
+        set_fields(self, channel=channel, file=file_arg(file))
 
     def encode_params(self) -> bytes:
         name = _as_name(self.CODE, "file", self.file)
-        return encode_channel(self.CODE, self.channel) + STORAGE + name.encode(self.CODE, "file")
+        return _file_head(self.CODE, self.channel, name)
 
     @classmethod
     def decode_params(cls, reader: Reader) -> Self:
-        channel = reader.channel()
-        _read_storage(reader)
-        return cls(channel, _read_name(reader))
+        return cls(*_read_file_head(reader))
 
     def decode_answer(self, packets: Sequence[bytes]) -> bool:
         r = self.single(packets)
@@ -385,7 +383,7 @@ class ListFiles(Command[tuple[FileRecord, ...]]):
 
     def encode_params(self) -> bytes:
         if self.pattern in WILDCARDS:
-            name = encode_text(self.CODE, "pattern", self.pattern, NAME_WIDTH, align=">")
+            name = encode_text(self.CODE, "pattern", self.pattern, FILE_NAME_WIDTH, align=">")
         else:
             name = _as_name(self.CODE, "pattern", self.pattern).encode(self.CODE, "pattern")
         return encode_channel(self.CODE, self.channel) + STORAGE + name
@@ -394,7 +392,7 @@ class ListFiles(Command[tuple[FileRecord, ...]]):
     def decode_params(cls, reader: Reader) -> Self:
         channel = reader.channel()
         _read_storage(reader)
-        name = reader.name(NAME_WIDTH, "pattern")
+        name = reader.name(FILE_NAME_WIDTH, "pattern")
         if str(name) not in WILDCARDS:
             name.check(cls.CODE, "pattern")
         return cls(channel, str(name))
@@ -442,22 +440,15 @@ class DeleteFile(NoData):
     file: FileName
 
     def __init__(self, channel: int, file: FileName | str) -> None:
-        _set(self, channel=channel, file=_file(file))
+        set_fields(self, channel=channel, file=file_arg(file))
 
     def encode_params(self) -> bytes:
         name = _as_name(self.CODE, "file", self.file)
-        return (
-            encode_channel(self.CODE, self.channel)
-            + STORAGE
-            + name.encode(self.CODE, "file")
-            + b"0"
-        )
+        return _file_head(self.CODE, self.channel, name) + b"0"
 
     @classmethod
     def decode_params(cls, reader: Reader) -> Self:
-        channel = reader.channel()
-        _read_storage(reader)
-        name = _read_name(reader)
+        channel, name = _read_file_head(reader)
         reader.code("DATA", 0, 0)
         return cls(channel, name)
 
@@ -481,24 +472,26 @@ class CopyFile(NoData):
     def __init__(
         self, channel: int, file: FileName | str, to_channel: int, to_file: FileName | str
     ) -> None:
-        _set(self, channel=channel, file=_file(file), to_channel=to_channel, to_file=_file(to_file))
+        set_fields(
+            self,
+            channel=channel,
+            file=file_arg(file),
+            to_channel=to_channel,
+            to_file=file_arg(to_file),
+        )
 
     def encode_params(self) -> bytes:
         source = _as_name(self.CODE, "file", self.file)
         target = _as_name(self.CODE, "to_file", self.to_file)
         return (
-            encode_channel(self.CODE, self.channel)
-            + STORAGE
-            + source.encode(self.CODE, "file")
+            _file_head(self.CODE, self.channel, source)
             + encode_channel(self.CODE, self.to_channel, "to_channel")
             + target.encode(self.CODE, "to_file")
         )
 
     @classmethod
     def decode_params(cls, reader: Reader) -> Self:
-        channel = reader.channel()
-        _read_storage(reader)
-        source = _read_name(reader)
+        channel, source = _read_file_head(reader)
         to_channel = reader.channel("to_channel")
         return cls(channel, source, to_channel, _read_name(reader, "to_file"))
 
@@ -516,24 +509,16 @@ class RenameFile(NoData):
     new_file: FileName
 
     def __init__(self, channel: int, file: FileName | str, new_file: FileName | str) -> None:
-        _set(self, channel=channel, file=_file(file), new_file=_file(new_file))
+        set_fields(self, channel=channel, file=file_arg(file), new_file=file_arg(new_file))
 
     def encode_params(self) -> bytes:
         old = _as_name(self.CODE, "file", self.file)
         new = _as_name(self.CODE, "new_file", self.new_file)
-        return (
-            encode_channel(self.CODE, self.channel)
-            + STORAGE
-            + old.encode(self.CODE, "file")
-            + b" "
-            + new.encode(self.CODE, "new_file")
-        )
+        return _file_head(self.CODE, self.channel, old) + b" " + new.encode(self.CODE, "new_file")
 
     @classmethod
     def decode_params(cls, reader: Reader) -> Self:
-        channel = reader.channel()
-        _read_storage(reader)
-        old = _read_name(reader)
+        channel, old = _read_file_head(reader)
         if reader.take(1, "file separator") != b" ":
             raise FieldError(cls.CODE, "file separator", "the 13th byte must be a space")
         return cls(channel, old, _read_name(reader, "new_file"))

@@ -10,9 +10,9 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Self
 
-from robostar.commands.base import Command, NoData
+from robostar.commands.base import Command, NoData, NoParams, NumberField
 from robostar.errors import FieldError, MalformedAnswerError
-from robostar.protocol.fields import Reader, decode_io_nibbles, encode_int, encode_io_nibbles
+from robostar.protocol.fields import Reader, decode_io_nibbles, encode_io_nibbles
 from robostar.types import IOState
 
 __all__ = ["ReadIOBoards", "ReadInputs", "ReadOutputs", "SetOutput"]
@@ -22,8 +22,10 @@ CONTACTS = 16
 MAX_BOARDS = 2
 
 
-def _encode_port(command: str, port: int) -> bytes:
-    return encode_int(command, "port", port, 2, lo=0, hi=MAX_PORT)
+PORT = NumberField("port", 2, 0, MAX_PORT)
+CONTACT = NumberField("contact", 2, 0, CONTACTS - 1)
+INPUT_BOARDS = NumberField("input boards", 2, 0, MAX_BOARDS)
+OUTPUT_BOARDS = NumberField("output boards", 2, 0, MAX_BOARDS)
 
 
 @dataclass(frozen=True, slots=True)
@@ -33,11 +35,11 @@ class _ReadPort(Command[IOState]):
     port: int
 
     def encode_params(self) -> bytes:
-        return _encode_port(self.CODE, self.port)
+        return PORT.encode(self.CODE, self.port)
 
     @classmethod
     def decode_params(cls, reader: Reader) -> Self:
-        return cls(reader.number(2, "port", lo=0, hi=MAX_PORT))
+        return cls(PORT.read(reader))
 
     def decode_answer(self, packets: Sequence[bytes]) -> IOState:
         r = self.single(packets)
@@ -84,35 +86,28 @@ class SetOutput(NoData):
         if not isinstance(self.on, bool):
             raise FieldError(self.CODE, "on", f"must be a bool, not {type(self.on).__name__}")
         return (
-            _encode_port(self.CODE, self.port)
-            + encode_int(self.CODE, "contact", self.contact, 2, lo=0, hi=CONTACTS - 1)
+            PORT.encode(self.CODE, self.port)
+            + CONTACT.encode(self.CODE, self.contact)
             + (b"1" if self.on else b"0")
         )
 
     @classmethod
     def decode_params(cls, reader: Reader) -> Self:
-        port = reader.number(2, "port", lo=0, hi=MAX_PORT)
-        contact = reader.number(2, "contact", lo=0, hi=CONTACTS - 1)
+        port = PORT.read(reader)
+        contact = CONTACT.read(reader)
         return cls(port, contact, bool(reader.code("on", 0, 1)))
 
 
 @dataclass(frozen=True, slots=True)
-class ReadIOBoards(Command[tuple[int, int]]):
+class ReadIOBoards(NoParams, Command[tuple[int, int]]):
     """GD: how many input and output I/O boards the controller is set up with (0-2 each)."""
 
     CODE = "GD"
 
-    def encode_params(self) -> bytes:
-        return b""
-
-    @classmethod
-    def decode_params(cls, reader: Reader) -> Self:
-        return cls()
-
     def decode_answer(self, packets: Sequence[bytes]) -> tuple[int, int]:
         r = self.single(packets)
-        inputs = r.number(2, "input boards", lo=0, hi=MAX_BOARDS)
-        outputs = r.number(2, "output boards", lo=0, hi=MAX_BOARDS)
+        inputs = INPUT_BOARDS.read(r)
+        outputs = OUTPUT_BOARDS.read(r)
         r.end()
         return inputs, outputs
 
@@ -120,9 +115,5 @@ class ReadIOBoards(Command[tuple[int, int]]):
         if len(result) != 2:
             raise FieldError(self.CODE, "boards", "give (input boards, output boards)")
         inputs, outputs = result
-        return [
-            self.ok(
-                encode_int(self.CODE, "input boards", inputs, 2, lo=0, hi=MAX_BOARDS)
-                + encode_int(self.CODE, "output boards", outputs, 2, lo=0, hi=MAX_BOARDS)
-            )
-        ]
+        body = INPUT_BOARDS.encode(self.CODE, inputs) + OUTPUT_BOARDS.encode(self.CODE, outputs)
+        return [self.ok(body)]

@@ -10,7 +10,17 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Self
 
-from robostar.commands.base import NoData
+from robostar.commands.base import (
+    ChannelOnly,
+    NoData,
+    NumberField,
+    encode_axes,
+    encode_file_of_kind,
+    file_arg,
+    read_axes,
+    read_file_of_kind,
+    set_fields,
+)
 from robostar.errors import FieldError
 from robostar.protocol.fields import (
     COORD_WIDTH,
@@ -20,8 +30,6 @@ from robostar.protocol.fields import (
     Reader,
     check_range,
     encode_channel,
-    encode_coord,
-    encode_int,
 )
 from robostar.types import CoordSystem, JogDirection, MotionType
 
@@ -37,6 +45,8 @@ __all__ = [
 
 POINT_WIDTH = 4
 MAX_LOCAL_POINT = 9999
+POINT = NumberField("point", POINT_WIDTH, 0, MAX_LOCAL_POINT)
+POINT2 = NumberField("point2", POINT_WIDTH, 0, MAX_LOCAL_POINT)
 MAX_AXES = 6
 
 
@@ -54,9 +64,7 @@ def _encode_axes(command: str, field: str, values: Sequence[float]) -> bytes:
     if isinstance(values, str | bytes) or not isinstance(values, Sequence):
         raise FieldError(command, field, "must be a sequence of axis values")
     check_range(command, f"{field} axis count", len(values), 1, MAX_AXES)
-    return b"".join(
-        encode_coord(command, f"{field} axis {i + 1}", value) for i, value in enumerate(values)
-    )
+    return encode_axes(command, values, field)
 
 
 def _read_points(reader: Reader, names: Sequence[str], field: str) -> tuple[tuple[float, ...], ...]:
@@ -70,23 +78,16 @@ def _read_points(reader: Reader, names: Sequence[str], field: str) -> tuple[tupl
             field,
             f"{size} bytes is not {count} point(s) of 1-{MAX_AXES} axes x {COORD_WIDTH} bytes",
         )
-    return tuple(tuple(reader.coord(f"{name} axis {a + 1}") for a in range(axes)) for name in names)
+    return tuple(read_axes(reader, axes, name) for name in names)
 
 
 @dataclass(frozen=True, slots=True)
-class Home(NoData):
+class Home(ChannelOnly, NoData):
     """BA: return a channel's robot to its origin (homing)."""
 
     CODE = "BA"
     CHANGES_STATE = True
     channel: int
-
-    def encode_params(self) -> bytes:
-        return encode_channel(self.CODE, self.channel)
-
-    @classmethod
-    def decode_params(cls, reader: Reader) -> Self:
-        return cls(reader.channel())
 
 
 @dataclass(frozen=True, slots=True, init=False)
@@ -114,11 +115,9 @@ class MoveToPoint(NoData):
         point: int,
         point2: int = 0,
     ) -> None:
-        object.__setattr__(self, "channel", channel)
-        object.__setattr__(self, "file", FileName.parse(file) if isinstance(file, str) else file)
-        object.__setattr__(self, "motion", motion)
-        object.__setattr__(self, "point", point)
-        object.__setattr__(self, "point2", point2)
+        set_fields(
+            self, channel=channel, file=file_arg(file), motion=motion, point=point, point2=point2
+        )
 
     @classmethod
     def _check_point2(cls, motion: int, point2: int) -> None:
@@ -128,22 +127,20 @@ class MoveToPoint(NoData):
 
     def encode_params(self) -> bytes:
         channel = encode_channel(self.CODE, self.channel)
-        if not isinstance(self.file, FileName):
-            raise FieldError(self.CODE, "file", "must be a FileName or a str")
-        name = self.file.check(self.CODE, "file", kind="PNT", case_flag=FLAG_REJECTED)
+        name = encode_file_of_kind(self.CODE, self.file, "PNT")
         motion = _digit(self.CODE, "motion", self.motion, 0, 3, FLAG_REJECTED)
-        point = encode_int(self.CODE, "point", self.point, POINT_WIDTH, lo=0, hi=MAX_LOCAL_POINT)
-        point2 = encode_int(self.CODE, "point2", self.point2, POINT_WIDTH, lo=0, hi=MAX_LOCAL_POINT)
+        point = POINT.encode(self.CODE, self.point)
+        point2 = POINT2.encode(self.CODE, self.point2)
         self._check_point2(self.motion, self.point2)
-        return channel + name.encode(self.CODE, "file") + motion + point + point2
+        return channel + name + motion + point + point2
 
     @classmethod
     def decode_params(cls, reader: Reader) -> Self:
         channel = reader.channel()
-        name = reader.name(12, "file").check(cls.CODE, "file", kind="PNT", case_flag=FLAG_REJECTED)
+        name = read_file_of_kind(reader, "PNT")
         motion = reader.enum("motion", MotionType)
-        point = reader.number(POINT_WIDTH, "point", lo=0, hi=MAX_LOCAL_POINT)
-        point2 = reader.number(POINT_WIDTH, "point2", lo=0, hi=MAX_LOCAL_POINT)
+        point = POINT.read(reader)
+        point2 = POINT2.read(reader)
         cls._check_point2(motion, point2)
         return cls(channel, name, motion, point, point2)
 
@@ -249,32 +246,18 @@ class JogStart(NoData):
 
 
 @dataclass(frozen=True, slots=True)
-class JogContinue(NoData):
+class JogContinue(ChannelOnly, NoData):
     """BF: keep a jog going (must come within 500 ms of the last BE/BF, or the robot stops)."""
 
     CODE = "BF"
     CHANGES_STATE = True
     channel: int
 
-    def encode_params(self) -> bytes:
-        return encode_channel(self.CODE, self.channel)
-
-    @classmethod
-    def decode_params(cls, reader: Reader) -> Self:
-        return cls(reader.channel())
-
 
 @dataclass(frozen=True, slots=True)
-class JogStop(NoData):
+class JogStop(ChannelOnly, NoData):
     """BG: stop a jog (``STX FF 'B' 'G' channel ETX LRC``; the manual's table is missing)."""
 
     CODE = "BG"
     CHANGES_STATE = True
     channel: int
-
-    def encode_params(self) -> bytes:
-        return encode_channel(self.CODE, self.channel)
-
-    @classmethod
-    def decode_params(cls, reader: Reader) -> Self:
-        return cls(reader.channel())

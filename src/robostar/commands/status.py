@@ -6,16 +6,14 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Self
 
-from robostar.commands.base import Command, Shape
+from robostar.commands.base import Command, NoParams, Shape, encode_axes, read_axes
 from robostar.errors import FieldError, MalformedAnswerError
 from robostar.protocol.fields import (
     COORD_WIDTH,
     Reader,
-    check_range,
     decode_using_axes,
     encode_channel,
     encode_code,
-    encode_coord,
     encode_int,
     encode_pulse,
     encode_text,
@@ -36,17 +34,10 @@ __all__ = ["ReadAlarms", "ReadInfo", "ReadPosition", "ReadStatus"]
 
 
 @dataclass(frozen=True, slots=True)
-class ReadStatus(Command[tuple[ChannelStatus, ChannelStatus, ChannelStatus]]):
+class ReadStatus(NoParams, Command[tuple[ChannelStatus, ChannelStatus, ChannelStatus]]):
     """AA: read the status byte of all three channels (servo, origin, alarm, ready, ...)."""
 
     CODE = "AA"
-
-    def encode_params(self) -> bytes:
-        return b""
-
-    @classmethod
-    def decode_params(cls, reader: Reader) -> Self:
-        return cls()
 
     def decode_answer(
         self, packets: Sequence[bytes]
@@ -66,18 +57,11 @@ ALARM_TEXT_WIDTH = 20
 
 
 @dataclass(frozen=True, slots=True)
-class ReadAlarms(Command[tuple[Alarm, ...]]):
+class ReadAlarms(NoParams, Command[tuple[Alarm, ...]]):
     """AB: read the current alarms, up to 10, one ``'E' "1153 : T/P Emergency"`` per packet."""
 
     CODE = "AB"
     SHAPE = Shape.MULTI
-
-    def encode_params(self) -> bytes:
-        return b""
-
-    @classmethod
-    def decode_params(cls, reader: Reader) -> Self:
-        return cls()
 
     def decode_answer(self, packets: Sequence[bytes]) -> tuple[Alarm, ...]:
         alarms = []
@@ -131,7 +115,7 @@ class ReadPosition(Command[Position]):
         if self.kind is PositionKind.PULSE:
             axes = tuple(r.number(COORD_WIDTH, f"axis {i + 1}") for i in range(count))
         else:
-            axes = tuple(r.coord(f"axis {i + 1}") for i in range(count))
+            axes = read_axes(r, count)
         arm = r.enum("ARM", ArmForm)
         return Position(self.kind, axes, arm)
 
@@ -142,9 +126,7 @@ class ReadPosition(Command[Position]):
                 for i, v in enumerate(result.axes)
             )
         else:
-            data = b"".join(
-                encode_coord(self.CODE, f"axis {i + 1}", v) for i, v in enumerate(result.axes)
-            )
+            data = encode_axes(self.CODE, result.axes)
         return [self.ok(data + encode_code(self.CODE, "ARM", result.arm, 0, 2))]
 
 
@@ -154,18 +136,11 @@ MODEL_WIDTH = 10
 
 
 @dataclass(frozen=True, slots=True)
-class ReadInfo(Command[ControllerInfo]):
+class ReadInfo(NoParams, Command[ControllerInfo]):
     """AD: read the controller's name, version, and per channel model, type and axes."""
 
     CODE = "AD"
     ANSWER_DUMMY = True
-
-    def encode_params(self) -> bytes:
-        return b""
-
-    @classmethod
-    def decode_params(cls, reader: Reader) -> Self:
-        return cls()
 
     def decode_answer(self, packets: Sequence[bytes]) -> ControllerInfo:
         r = self.single(packets)
@@ -198,8 +173,3 @@ class ReadInfo(Command[ControllerInfo]):
         for ch in result.channels:
             data += encode_using_axes(self.CODE, ch.axes_in_use)
         return [self.ok(bytes(data))]
-
-
-def check_axes(command: str, axes: Sequence[float], field: str = "axes") -> None:
-    """1 to 6 axis values."""
-    check_range(command, f"{field} count", len(axes), 1, 6)

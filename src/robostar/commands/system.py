@@ -6,7 +6,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Self
 
-from robostar.commands.base import Command, Shape
+from robostar.commands.base import Command, NoParams, Shape
 from robostar.errors import FieldError
 from robostar.protocol.fields import Reader, check_range, encode_channel, encode_int, encode_text
 from robostar.protocol.frame import MAX_PACKET
@@ -31,19 +31,12 @@ def _text(command: str, field: str, text: str) -> bytes:
 
 
 @dataclass(frozen=True, slots=True)
-class ReadLastError(Command[str]):
+class ReadLastError(NoParams, Command[str]):
     """KD: the text of the last communication error (why a command got 0x32), shared by all
     channels, e.g. ``"LRC is different with received data LRC"``."""
 
     CODE = "KD"
     ANSWER_DUMMY = True
-
-    def encode_params(self) -> bytes:
-        return b""
-
-    @classmethod
-    def decode_params(cls, reader: Reader) -> Self:
-        return cls()
 
     def decode_answer(self, packets: Sequence[bytes]) -> str:
         return self.single(packets).rest().decode("ascii", "replace").strip()

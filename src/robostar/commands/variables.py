@@ -10,16 +10,23 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Self
+from typing import TYPE_CHECKING, ClassVar, Self
 
-from robostar.commands.base import Command, NoData
+from robostar.commands.base import (
+    Command,
+    NoData,
+    NumberAnswer,
+    NumberField,
+    encode_axes,
+    read_axes,
+)
 from robostar.errors import FieldError, MalformedAnswerError
 from robostar.protocol.fields import (
     Reader,
     check_range,
     encode_channel,
+    encode_code,
     encode_coord,
-    encode_int,
 )
 from robostar.types import ArmForm, CoordSystem, GlobalKind, Point
 
@@ -40,6 +47,10 @@ INT_MIN = -99999
 INT_MAX = 999999
 READ_FLOAT_WIDTH = 9
 WRITE_FLOAT_WIDTH = 10
+POINT_INDEX = NumberField("index", 5, 0, MAX_POINT_INDEX, pad=" ")
+VALUE_INDEX = NumberField("index", 4, 0, MAX_VALUE_INDEX, pad=" ")
+INT_VALUE = NumberField("value", INT_WIDTH, INT_MIN, INT_MAX, pad=" ")
+"""Six bytes hold exactly INT_MIN..INT_MAX, so reading it checks nothing beyond the number."""
 
 
 def _type_byte(kind: GlobalKind) -> bytes:
@@ -50,15 +61,26 @@ def _read_type(reader: Reader, kind: GlobalKind) -> None:
     reader.code("Type", int(kind), int(kind))
 
 
+class _Variant:
+    """Mixin for a GR/GW variant: it handles the requests whose Type byte is ``KIND``."""
+
+    __slots__ = ()
+    KIND: ClassVar[GlobalKind]
+
+    @classmethod
+    def matches(cls, params: bytes) -> bool:
+        return params[:1] == _type_byte(cls.KIND)
+
+
 # -- points ----------------------------------------------------------------------------------
 def _point_params(command: str, channel: int, coords: int, axis: int, index: int) -> bytes:
     """Channel, coordinate system, axis and index: the fields GR and GW points share."""
     return (
         _type_byte(GlobalKind.POINT)
         + encode_channel(command, channel)
-        + b"%d" % check_range(command, "coords", coords, 0, 1)
-        + b"%d" % check_range(command, "axis", axis, 0, AXES)
-        + encode_int(command, "index", index, 5, lo=0, hi=MAX_POINT_INDEX, pad=" ")
+        + encode_code(command, "coords", coords, 0, 1)
+        + encode_code(command, "axis", axis, 0, AXES)
+        + POINT_INDEX.encode(command, index)
     )
 
 
@@ -67,7 +89,7 @@ def _read_point_params(reader: Reader) -> tuple[int, CoordSystem, int, int]:
     channel = reader.channel()
     coords = reader.enum("coords", CoordSystem)
     axis = reader.code("axis", 0, AXES)
-    index = reader.number(5, "index", lo=0, hi=MAX_POINT_INDEX)
+    index = POINT_INDEX.read(reader)
     return channel, coords, axis, index
 
 
@@ -85,26 +107,23 @@ def _encode_point(command: str, point: Point, axis: int, *, arm: bool) -> bytes:
         )
     else:
         values = point.axes
-    data = b"".join(encode_coord(command, f"point axis {i}", v) for i, v in enumerate(values, 1))
+    data = encode_axes(command, values, "point")
     data += b"1" if point.used else b"0"
     if axis == 0 or arm:
-        data += b"%d" % check_range(command, "point arm", point.arm, 0, 2)
+        data += encode_code(command, "point arm", point.arm, 0, 2)
     return data
 
 
 def _decode_point(reader: Reader, axis: int, *, arm: bool) -> Point:
     """The inverse of :func:`_encode_point`; a one-axis point read without ARM has arm NONE."""
-    if axis == 0:
-        axes = tuple(reader.coord(f"axis {i}") for i in range(1, AXES + 1))
-    else:
-        axes = (reader.coord(f"axis {axis}"),)
+    axes = read_axes(reader, AXES) if axis == 0 else (reader.coord(f"axis {axis}"),)
     used = bool(reader.code("USED", 0, 1))
     form = reader.enum("ARM", ArmForm) if axis == 0 or arm else ArmForm.NONE
     return Point(axes, form, used)
 
 
 @dataclass(frozen=True, slots=True)
-class ReadGlobalPoint(Command[Point]):
+class ReadGlobalPoint(_Variant, Command[Point]):
     """GR (Type '0'): read global point ``index`` (0-1023) of a channel, all axes or one.
 
     The answer is ``FLAG '0'`` then, for all axes (``axis`` 0), 6 x 10 bytes + USED + ARM
@@ -113,14 +132,11 @@ class ReadGlobalPoint(Command[Point]):
     """
 
     CODE = "GR"
+    KIND = GlobalKind.POINT
     channel: int
     index: int
     coords: CoordSystem = CoordSystem.ANGLE
     axis: int = 0
-
-    @classmethod
-    def matches(cls, params: bytes) -> bool:
-        return params[:1] == _type_byte(GlobalKind.POINT)
 
     def encode_params(self) -> bytes:
         return _point_params(self.CODE, self.channel, self.coords, self.axis, self.index)
@@ -132,7 +148,7 @@ class ReadGlobalPoint(Command[Point]):
 
     def decode_answer(self, packets: Sequence[bytes]) -> Point:
         r = self.single(packets)
-        if r.take(1, "Type") != _type_byte(GlobalKind.POINT):
+        if r.take(1, "Type") != _type_byte(self.KIND):
             raise MalformedAnswerError(self.CODE, "point data does not start with '0'")
         point = _decode_point(r, self.axis, arm=False)
         r.end()
@@ -140,11 +156,11 @@ class ReadGlobalPoint(Command[Point]):
 
     def encode_answer(self, result: Point) -> list[bytes]:
         data = _encode_point(self.CODE, result, self.axis, arm=False)
-        return [self.ok(_type_byte(GlobalKind.POINT) + data)]
+        return [self.ok(_type_byte(self.KIND) + data)]
 
 
 @dataclass(frozen=True, slots=True)
-class WriteGlobalPoint(NoData):
+class WriteGlobalPoint(_Variant, NoData):
     """GW (Type '0'): write global point ``index`` (0-1023) of a channel, all axes or one.
 
     All axes (``axis`` 0): 6 x 10 bytes + USED + ARM, axes the point lacks sent as 0.0 (so it
@@ -154,15 +170,12 @@ class WriteGlobalPoint(NoData):
 
     CODE = "GW"
     CHANGES_STATE = True
+    KIND = GlobalKind.POINT
     channel: int
     index: int
     point: Point
     coords: CoordSystem = CoordSystem.ANGLE
     axis: int = 0
-
-    @classmethod
-    def matches(cls, params: bytes) -> bool:
-        return params[:1] == _type_byte(GlobalKind.POINT)
 
     def encode_params(self) -> bytes:
         head = _point_params(self.CODE, self.channel, self.coords, self.axis, self.index)
@@ -176,90 +189,72 @@ class WriteGlobalPoint(NoData):
 
 # -- integers and floats ---------------------------------------------------------------------
 def _value_index(command: str, kind: GlobalKind, index: int) -> bytes:
-    return _type_byte(kind) + encode_int(
-        command, "index", index, 4, lo=0, hi=MAX_VALUE_INDEX, pad=" "
-    )
+    return _type_byte(kind) + VALUE_INDEX.encode(command, index)
 
 
 def _read_value_index(reader: Reader, kind: GlobalKind) -> int:
     _read_type(reader, kind)
-    return reader.number(4, "index", lo=0, hi=MAX_VALUE_INDEX)
+    return VALUE_INDEX.read(reader)
 
 
-def _encode_int_value(command: str, value: int) -> bytes:
-    return encode_int(command, "value", value, INT_WIDTH, lo=INT_MIN, hi=INT_MAX, pad=" ")
+class _ReadValue(_Variant):
+    """Mixin for GR of an integer or a float: the request is Type and ``index``."""
 
-
-@dataclass(frozen=True, slots=True)
-class ReadGlobalInt(Command[int]):
-    """GR (Type '1'): read global integer ``index`` (0-499); the answer is 6 bytes."""
-
-    CODE = "GR"
+    __slots__ = ()
+    CODE: ClassVar[str]
     index: int
 
-    @classmethod
-    def matches(cls, params: bytes) -> bool:
-        return params[:1] == _type_byte(GlobalKind.INTEGER)
+    if TYPE_CHECKING:
+        # The dataclass mixing this in declares ``index`` and generates the real __init__.
+        def __init__(self, index: int) -> None: ...
 
     def encode_params(self) -> bytes:
-        return _value_index(self.CODE, GlobalKind.INTEGER, self.index)
+        return _value_index(self.CODE, self.KIND, self.index)
 
     @classmethod
     def decode_params(cls, reader: Reader) -> Self:
-        return cls(_read_value_index(reader, GlobalKind.INTEGER))
-
-    def decode_answer(self, packets: Sequence[bytes]) -> int:
-        r = self.single(packets)
-        value = r.number(INT_WIDTH, "value")
-        r.end()
-        return value
-
-    def encode_answer(self, result: int) -> list[bytes]:
-        return [self.ok(_encode_int_value(self.CODE, result))]
+        return cls(_read_value_index(reader, cls.KIND))
 
 
 @dataclass(frozen=True, slots=True)
-class WriteGlobalInt(NoData):
+class ReadGlobalInt(_ReadValue, NumberAnswer):
+    """GR (Type '1'): read global integer ``index`` (0-499); the answer is 6 bytes."""
+
+    CODE = "GR"
+    KIND = GlobalKind.INTEGER
+    ANSWER = INT_VALUE
+    index: int
+
+
+@dataclass(frozen=True, slots=True)
+class WriteGlobalInt(_Variant, NoData):
     """GW (Type '1'): write global integer ``index`` (0-499), 6 bytes (-99999..999999)."""
 
     CODE = "GW"
     CHANGES_STATE = True
+    KIND = GlobalKind.INTEGER
     index: int
     value: int
 
-    @classmethod
-    def matches(cls, params: bytes) -> bool:
-        return params[:1] == _type_byte(GlobalKind.INTEGER)
-
     def encode_params(self) -> bytes:
-        return _value_index(self.CODE, GlobalKind.INTEGER, self.index) + _encode_int_value(
+        return _value_index(self.CODE, self.KIND, self.index) + INT_VALUE.encode(
             self.CODE, self.value
         )
 
     @classmethod
     def decode_params(cls, reader: Reader) -> Self:
-        index = _read_value_index(reader, GlobalKind.INTEGER)
-        return cls(index, reader.number(INT_WIDTH, "value"))
+        index = _read_value_index(reader, cls.KIND)
+        return cls(index, INT_VALUE.read(reader))
 
 
 @dataclass(frozen=True, slots=True)
-class ReadGlobalFloat(Command[float]):
+class ReadGlobalFloat(_ReadValue, Command[float]):
     """GR (Type '2'): read global float ``index`` (0-499); the answer is 9 bytes, 3 decimals
     (``"12345.123"``)."""
 
     CODE = "GR"
+    KIND = GlobalKind.FLOAT
     index: int
-
-    @classmethod
-    def matches(cls, params: bytes) -> bool:
-        return params[:1] == _type_byte(GlobalKind.FLOAT)
-
-    def encode_params(self) -> bytes:
-        return _value_index(self.CODE, GlobalKind.FLOAT, self.index)
-
-    @classmethod
-    def decode_params(cls, reader: Reader) -> Self:
-        return cls(_read_value_index(reader, GlobalKind.FLOAT))
 
     def decode_answer(self, packets: Sequence[bytes]) -> float:
         r = self.single(packets)
@@ -272,25 +267,22 @@ class ReadGlobalFloat(Command[float]):
 
 
 @dataclass(frozen=True, slots=True)
-class WriteGlobalFloat(NoData):
+class WriteGlobalFloat(_Variant, NoData):
     """GW (Type '2'): write global float ``index`` (0-499) as 10 bytes with 3 decimals
     (``"123456.123"``); further decimals are rounded away."""
 
     CODE = "GW"
     CHANGES_STATE = True
+    KIND = GlobalKind.FLOAT
     index: int
     value: float
 
-    @classmethod
-    def matches(cls, params: bytes) -> bool:
-        return params[:1] == _type_byte(GlobalKind.FLOAT)
-
     def encode_params(self) -> bytes:
-        return _value_index(self.CODE, GlobalKind.FLOAT, self.index) + encode_coord(
+        return _value_index(self.CODE, self.KIND, self.index) + encode_coord(
             self.CODE, "value", self.value, WRITE_FLOAT_WIDTH
         )
 
     @classmethod
     def decode_params(cls, reader: Reader) -> Self:
-        index = _read_value_index(reader, GlobalKind.FLOAT)
+        index = _read_value_index(reader, cls.KIND)
         return cls(index, reader.coord("value", WRITE_FLOAT_WIDTH))

@@ -511,9 +511,10 @@ class HostLink(Link):
     ``resync_gap`` seconds (state RESYNC): a stale packet still in flight is answered with RST
     and restarts the gap, a NAK for an old frame is ignored, and a new request waits until the
     gap is over. (The client sets the gap to its reply timeout, so an answer held back by a
-    device server for up to twice the timeout cannot land on the next request.) And after ACKing a packet that is
-    not the last, it waits ``timeout + resend_grace`` for the next one, so that a controller
-    resending after its own timeout (our ACK was lost) is heard before we give up.
+    device server for up to twice the timeout cannot land on the next request.) And after
+    ACKing a packet that is not the last, it waits ``timeout + resend_grace`` for the next one,
+    so that a controller resending after its own timeout (our ACK was lost) is heard before we
+    give up.
     """
 
     role = Role.HOST
