@@ -301,7 +301,9 @@ APP_TURN = frozenset((State.HANDLING, State.UPLOAD_HANDLING, State.UPLOAD_READY)
 """States where the application holds the exchange (it must answer, or send the next upload
 packet). Bytes that arrive meanwhile — even in the same read as the request — are held and
 taken in order once the application has acted, as h11 pauses while a request is served: an RST
-or a second request right behind a request must not pull the exchange from under the answer."""
+or a second request right behind a request must not pull the exchange from under the answer.
+If the held input shows that the peer moved on (an RST, a new request, any packet), the
+application's packet is not sent at all (see ``Link._peer_moved_on``)."""
 
 _CONTROL_INPUT = {
     ControlKind.ACK: Input.ACK,
@@ -493,8 +495,33 @@ class Link:
         self._arm(self.timeout)
 
     def _reset_by_peer(self, data: bytes) -> None:
-        self.decoder.reset()
+        # An RST is only ever read between frames: nothing of the decoder's is to be dropped
+        # (and a held RST must not drop the start of a frame that came after it).
         self._fail(FailReason.RESET, "RST received", send_rst=False)
+
+    def _peer_moved_on(self) -> bool:
+        """At the application's call in its turn: if the peer sent an RST or a packet meanwhile,
+        it has moved on. Then nothing is sent: the exchange ends (RESET; SUPERSEDED for a new
+        request, which is taken next; else a broken rule) and the held input follows in order.
+        Held noise (ACK, NAK, a corrupt frame) does not count."""
+        if self.state not in APP_TURN:
+            return False
+        for index, event in enumerate(self._backlog):
+            if isinstance(event, Control) and event.kind is ControlKind.RST:
+                del self._backlog[: index + 1]
+                self._fail(FailReason.RESET, "RST arrived before this end's turn", send_rst=False)
+                return True
+            if isinstance(event, Packet):
+                if self.role is Role.CONTROLLER and event.data[:1] == b"\xff":
+                    del self._backlog[:index]
+                    self._fail(FailReason.SUPERSEDED, "a new request came first", send_rst=False)
+                    return True
+                del self._backlog[: index + 1]
+                self._rule_broken(
+                    LinkRuleError(self.role.value, self.state.value, "packet", "during our turn")
+                )
+                return True
+        return False
 
     def _abort(self, data: bytes) -> None:
         self._fail(FailReason.ABORTED, "aborted by the application", send_rst=True)
@@ -703,11 +730,15 @@ class HostLink(Link):
             )
 
     def _h_send_line(self, body: bytes) -> None:
+        if self._peer_moved_on():
+            return
         self._send_packet(bytes((FLAG_OK,)) + body)
         self.state = State.UPLOAD_WAIT_REPLY
         self._arm(self.timeout)
 
     def _h_send_end(self, data: bytes) -> None:
+        if self._peer_moved_on():
+            return
         self._send_packet(bytes((FLAG_END,)))
         self.state = State.UPLOAD_WAIT_ACK
         self._arm(self.timeout)
@@ -771,6 +802,8 @@ class ControllerLink(Link):
         self._emit(RequestReceived(data))
 
     def _c_send_answer(self, data: bytes) -> None:
+        if self._peer_moved_on():
+            return
         packets, after = self._pending
         self._queue = packets[1:]
         self._after = after
@@ -841,6 +874,8 @@ class ControllerLink(Link):
         self._fail(FailReason.TIMEOUT, "upload stalled; exchange dropped", send_rst=False)
 
     def _c_accept_upload(self, data: bytes) -> None:
+        if self._peer_moved_on():
+            return
         self._send_control(ACK)
         self._finish(ExchangeComplete())
 
