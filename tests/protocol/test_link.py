@@ -7,13 +7,14 @@ from one end's ``data_to_send()`` into the other's ``receive_data`` until the li
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import pytest
 
 from robostar.errors import LinkRuleError, PacketTooLongError, UsageError
 from robostar.protocol.frame import ACK, NAK, RST, encode_packet
 from robostar.protocol.link import (
+    APP_TURN,
     MAX_NAKS,
     MAX_RESENDS,
     TRANSITIONS,
@@ -207,7 +208,7 @@ PACKET_FOR = {
     State.WAIT_MORE: ALARM_2,
     State.WAIT_SECOND: OK,
     State.UPLOAD_WAIT_REPLY: FB_OK,
-    State.UPLOAD_READY: FB_OK,
+    State.UPLOAD_READY: END,  # stale: held, then a broken rule at the next call (see HELD)
     State.UPLOAD_WAIT_ACK: b"\xff2",
     State.RESYNC: AA_ANSWER,
     State.LISTEN: AA,
@@ -306,13 +307,152 @@ def _missing() -> list[tuple[Role, State, Input]]:
     return [
         (role, state, what)
         for role, state in SETUPS
-        for what in LINE_INPUTS | APP_INPUTS[role]
+        for what in sorted(LINE_INPUTS | APP_INPUTS[role], key=lambda i: i.value)
         if (role, state, what) not in TRANSITIONS and what is not Input.TIMEOUT
     ]
 
 
+T1 = T0 + 1.0
+"""When the application makes its next call after a held input (fire() gives it at T0 + 0.5)."""
+
+
+def _next_call(link: Link) -> list[LinkEvent]:
+    """The application's own next step in each of its turns, at T1."""
+    if isinstance(link, HostLink):
+        return link.send_upload_line(LINE_2, T1)
+    assert isinstance(link, ControllerLink)
+    if link.state is State.UPLOAD_HANDLING:
+        return link.send_answer([FB_OK], After.UPLOAD, T1)
+    return link.send_answer([AA_ANSWER], After.DONE, T1)
+
+
+ANSWER_F = frame(AA_ANSWER)
+REPLY_F = frame(FB_OK)
+LINE_F = frame(OK + LINE_2)
+CANCELLED = "RST arrived before this end's turn"
+HELD: dict[tuple[State, Input], tuple[bytes, list[object], State, float | None]] = {
+    # Noise does not show that the host moved on: the controller's answer goes out first and the
+    # held input meets it in WAIT_ACK.
+    (State.HANDLING, Input.CORRUPT): (ANSWER_F + NAK_B, [], State.WAIT_ACK, T1 + 2.0),
+    (State.HANDLING, Input.ACK): (ANSWER_F, [ExchangeComplete()], State.LISTEN, None),
+    (State.HANDLING, Input.NAK): (ANSWER_F * 2, [], State.WAIT_ACK, T1 + 2.0),
+    # A new request or an RST does: no answer goes out. The request is then a new exchange.
+    (State.HANDLING, Input.PACKET): (
+        b"",
+        [
+            ExchangeFailed(FailReason.SUPERSEDED, State.HANDLING, "a new request came first"),
+            RequestReceived(AA),
+        ],
+        State.HANDLING,
+        None,
+    ),
+    (State.HANDLING, Input.RST): (
+        b"",
+        [ExchangeFailed(FailReason.RESET, State.HANDLING, CANCELLED)],
+        State.LISTEN,
+        None,
+    ),
+    # The upload reply likewise: held noise meets it in UPLOAD_WAIT_PACKET, a held RST cancels
+    # it, and a content packet before it is a rule the host broke (RST in place of the reply).
+    (State.UPLOAD_HANDLING, Input.CORRUPT): (
+        REPLY_F + NAK_B,
+        [],
+        State.UPLOAD_WAIT_PACKET,
+        T1 + 2.0,
+    ),
+    (State.UPLOAD_HANDLING, Input.ACK): (
+        REPLY_F,
+        [Ignored("stray input", State.UPLOAD_WAIT_PACKET)],
+        State.UPLOAD_WAIT_PACKET,
+        T1 + 2.0,
+    ),
+    (State.UPLOAD_HANDLING, Input.NAK): (REPLY_F * 2, [], State.UPLOAD_WAIT_PACKET, T1 + 2.0),
+    (State.UPLOAD_HANDLING, Input.PACKET): (
+        RST_B,
+        [
+            (
+                ExchangeFailed(
+                    FailReason.RULE,
+                    State.UPLOAD_HANDLING,
+                    "controller link in state UPLOAD_HANDLING cannot take packet: during our turn",
+                ),
+                ("controller", "UPLOAD_HANDLING", "packet"),
+            )
+        ],
+        State.LISTEN,
+        None,
+    ),
+    (State.UPLOAD_HANDLING, Input.RST): (
+        b"",
+        [ExchangeFailed(FailReason.RESET, State.UPLOAD_HANDLING, CANCELLED)],
+        State.LISTEN,
+        None,
+    ),
+    # The host's next line goes out before held noise, which meets it in UPLOAD_WAIT_REPLY. The
+    # controller sends nothing between its reply and the host's next packet, so a held packet
+    # breaks a rule (RST in place of the line, which starts the host's gap) and a held RST ends
+    # the upload with nothing sent.
+    (State.UPLOAD_READY, Input.CORRUPT): (LINE_F + NAK_B, [], State.UPLOAD_WAIT_REPLY, T1 + 2.0),
+    (State.UPLOAD_READY, Input.ACK): (
+        LINE_F,
+        [Ignored("stray input", State.UPLOAD_WAIT_REPLY)],
+        State.UPLOAD_WAIT_REPLY,
+        T1 + 2.0,
+    ),
+    (State.UPLOAD_READY, Input.NAK): (LINE_F * 2, [], State.UPLOAD_WAIT_REPLY, T1 + 2.0),
+    (State.UPLOAD_READY, Input.PACKET): (
+        RST_B,
+        [
+            (
+                ExchangeFailed(
+                    FailReason.RULE,
+                    State.UPLOAD_READY,
+                    "host link in state UPLOAD_READY cannot take packet: during our turn",
+                ),
+                ("host", "UPLOAD_READY", "packet"),
+            )
+        ],
+        State.RESYNC,
+        T1 + 0.25,
+    ),
+    (State.UPLOAD_READY, Input.RST): (
+        b"",
+        [ExchangeFailed(FailReason.RESET, State.UPLOAD_READY, CANCELLED)],
+        State.IDLE,
+        None,
+    ),
+}
+"""What each held line input does once the application has made its next call (at T1): the
+bytes written by then, the events that call returns, the state and the deadline after it."""
+
+
+def plain(events: list[LinkEvent]) -> list[object]:
+    """``events`` with each rule break paired with its error's (role, state, event): exceptions
+    compare by identity, so the error is checked by its fields."""
+    return [
+        (replace(e, error=None), (e.error.role, e.error.state, e.error.event))
+        if isinstance(e, ExchangeFailed) and e.error is not None
+        else e
+        for e in events
+    ]
+
+
+def test_line_input_is_missing_exactly_in_the_applications_turn() -> None:
+    assert {State.HANDLING, State.UPLOAD_HANDLING, State.UPLOAD_READY} == APP_TURN
+    missing_line_input = {key for key in _missing() if key[2] in LINE_INPUTS}
+    assert missing_line_input == {
+        (role, state, what)
+        for role, state in SETUPS
+        if state in APP_TURN
+        for what in LINE_INPUTS - {Input.TIMEOUT}
+    }
+    assert set(HELD) == {(state, what) for _, state, what in missing_line_input}
+
+
 @pytest.mark.parametrize("key", _missing(), ids=str)
-def test_every_missing_pair_breaks_a_rule(key: tuple[Role, State, Input]) -> None:
+def test_every_missing_pair_breaks_a_rule_or_waits_for_the_application(
+    key: tuple[Role, State, Input],
+) -> None:
     role, state, what = key
     link = SETUPS[(role, state)]()
     if what in APP_INPUTS[role]:
@@ -326,32 +466,32 @@ def test_every_missing_pair_breaks_a_rule(key: tuple[Role, State, Input]) -> Non
         assert link.state is state
         assert link.data_to_send() == b""
         return
-    events = fire(link, what)
-    assert link.data_to_send() == RST_B
-    if role is Role.HOST:
-        # The host's RST starts its quiet gap; fire() gives the input at T0 + 0.5.
-        assert link.state is State.RESYNC
-        assert link.next_deadline() == pytest.approx(T0 + 0.5 + 0.25)
-    else:
-        assert link.idle
-        assert link.next_deadline() is None
-    assert not link.busy
-    [failed] = failures(events)
-    assert (failed.reason, failed.state) == (FailReason.RULE, state)
-    assert isinstance(failed.error, LinkRuleError)
-    assert (failed.error.state, failed.error.event) == (state.value, what.value)
-    assert state.value in failed.detail
+    # Line input in the application's turn is held, not a broken rule: nothing happens...
+    assert fire(link, what) == []
+    assert link.data_to_send() == b""
+    assert link.state is state
+    assert link.next_deadline() is None
+    assert link.busy
+    # ...until the application has made its next call, which returns what the input produced.
+    written, events, after, deadline = HELD[(state, what)]
+    assert plain(_next_call(link)) == events
+    assert link.data_to_send() == written
+    assert link.state is after
+    assert link.next_deadline() == (None if deadline is None else pytest.approx(deadline))
 
 
 def test_missing_pairs_include_the_rules_the_manual_implies() -> None:
     missing = set(_missing())
-    # A request while the controller is still handling one; a packet where the host owes the
-    # next upload line; an upload call outside an upload; an answer nobody asked for.
-    assert (Role.CONTROLLER, State.HANDLING, Input.PACKET) in missing
-    assert (Role.HOST, State.UPLOAD_READY, Input.PACKET) in missing
+    # An upload call outside an upload; an answer nobody asked for; a second request from the
+    # host while one is in flight.
     assert (Role.HOST, State.IDLE, Input.SEND_LINE) in missing
     assert (Role.CONTROLLER, State.LISTEN, Input.SEND_ANSWER) in missing
     assert (Role.HOST, State.WAIT_ANSWER, Input.SEND_REQUEST) in missing
+    # A request while the controller handles one, a packet where the host owes the next upload
+    # line: no table entry, so they wait for the application's next call, and cancel what it
+    # would send (see HELD).
+    assert (Role.CONTROLLER, State.HANDLING, Input.PACKET) in missing
+    assert (Role.HOST, State.UPLOAD_READY, Input.PACKET) in missing
 
 
 # ===============================================================================================
@@ -1009,9 +1149,9 @@ def test_lost_ack_of_a_single_answer_is_acked_again_while_idle() -> None:
     assert pair.host.data_to_send() == ACK_B  # lost on the line
     assert pair.host.idle
     pair.take()
-    pair.at(2.0)  # the controller resends; the idle host ACKs the stray packet
+    pair.at(2.0)  # the controller resends; the idle host knows the packet and ACKs it again
     host, ctl = pair.take()
-    assert host == [Ignored("packet outside an exchange (ACKed)", State.IDLE)]
+    assert host == [Ignored("resent answer outside an exchange (ACKed again)", State.IDLE)]
     assert ctl == [ExchangeComplete()]
     assert pair.to_host[-1] == frame(AA_ANSWER)
     assert pair.to_ctl[-1] == ACK_B
@@ -1077,6 +1217,47 @@ def test_lost_ack_of_db_first_answer_keeps_the_second_phase_deadline() -> None:
     host, ctl = pair.take()
     assert answers(host) == [OK]
     assert completes(host) == completes(ctl) == 1
+
+
+def _answered_then(next_request_at: float) -> HostLink:
+    """A host whose AA was answered (and ACKed) at 0.1, with BA sent at ``next_request_at``."""
+    host = HostLink()
+    host.send_request(AA, Shape.SINGLE, 0.0)
+    assert answers(host.receive_data(frame(AA_ANSWER), 0.1)) == [AA_ANSWER]
+    assert host.send_request(BA, Shape.SINGLE, next_request_at) == []
+    assert host.data_to_send() == frame(AA) + ACK_B + frame(BA)
+    return host
+
+
+def test_a_late_copy_of_the_previous_answer_is_acked_again_not_taken_as_the_next() -> None:
+    # BA went out right behind our ACK of AA's answer; a copy of that answer arriving late is
+    # the controller resending it after its own timeout (the ACK was lost), not BA's answer.
+    host = _answered_then(0.1)
+    assert host.receive_data(frame(AA_ANSWER), 2.1) == [
+        Ignored("resent answer (ACKed again)", State.WAIT_ANSWER)
+    ]
+    assert host.data_to_send() == ACK_B
+    assert host.state is State.WAIT_ANSWER
+    assert host.next_deadline() == pytest.approx(2.1 + 2.0 + 0.5)
+    assert host.receive_data(frame(OK), 2.2) == [
+        AnswerReceived(OK, 0x30, final=True),
+        ExchangeComplete(),
+    ]
+
+
+@pytest.mark.parametrize(
+    ("request_at", "copy_at"),
+    [(0.1, 0.3499), (0.5, 2.1)],
+    ids=["the copy comes at once", "the request went out later"],
+)
+def test_an_equal_answer_is_the_next_requests_answer(request_at: float, copy_at: float) -> None:
+    host = _answered_then(request_at)
+    assert host.receive_data(frame(AA_ANSWER), copy_at) == [
+        AnswerReceived(AA_ANSWER, 0x30, final=True),
+        ExchangeComplete(),
+    ]
+    assert host.data_to_send() == ACK_B
+    assert host.idle
 
 
 def test_new_request_while_controller_waits_for_ack_completes_the_old_exchange() -> None:
@@ -1155,12 +1336,67 @@ def test_a_non_request_packet_while_waiting_for_ack_breaks_a_rule() -> None:
     assert pair.ctl.data_to_send() == RST_B
 
 
-def test_stray_packet_while_host_idle_is_acked() -> None:
+def test_a_stale_packet_while_host_idle_is_answered_with_rst() -> None:
     host = HostLink()
     events = host.receive_data(frame(b"0stale"), 3.0)
-    assert events == [Ignored("packet outside an exchange (ACKed)", State.IDLE)]
+    assert events == [Ignored("stale packet outside an exchange (RST)", State.IDLE)]
+    assert host.data_to_send() == RST_B
+    # The controller sends nothing more before it takes the RST: no gap is needed.
+    assert host.idle and host.next_deadline() is None
+    assert host.send_request(AA, Shape.SINGLE, 3.1) == []
+    assert host.data_to_send() == frame(AA)
+
+
+def test_only_a_copy_of_the_last_acked_answer_is_acked_again_while_idle() -> None:
+    host = HostLink()
+    host.send_request(AB, Shape.MULTI, 0.0)
+    host.data_to_send()
+    host.receive_data(frame(ALARM_1) + frame(END), 0.1)
+    assert host.data_to_send() == ACK_B * 2
+    assert host.idle
+    # An earlier packet of the same exchange is not the one whose ACK may have been lost.
+    assert host.receive_data(frame(ALARM_1), 2.1) == [
+        Ignored("stale packet outside an exchange (RST)", State.IDLE)
+    ]
+    assert host.data_to_send() == RST_B
+    assert host.receive_data(frame(END), 2.2) == [
+        Ignored("resent answer outside an exchange (ACKed again)", State.IDLE)
+    ]
     assert host.data_to_send() == ACK_B
     assert host.idle and host.next_deadline() is None
+
+
+def test_an_abandoned_multi_answer_is_stopped_by_the_idle_host() -> None:
+    # A slow controller (5 s). The host's ACK of ALARM_1 is lost; the host gives up at 2.5 and
+    # its RST is lost too, so the controller resends ALARM_1 at 5.0 to an idle host. That copy
+    # is ACKed again (it is the last packet the host ACKed), and the controller goes on with
+    # ALARM_2, which the host stops with RST instead of ACKing the whole stream to its end.
+    pair = Pair(ctl=ControllerLink(timeout=5.0))
+    pair.request(AB, Shape.MULTI)
+    pair.ctl.send_answer([ALARM_1, ALARM_2, END], After.DONE, 0.0)
+    pair.host_events += pair.host.receive_data(pair.ctl.data_to_send(), 0.0)
+    assert pair.host.data_to_send() == ACK_B  # lost
+    assert pair.host.next_deadline() == pytest.approx(2.5)
+    events = pair.host.handle_timeout(2.5)
+    assert [(f.reason, f.state) for f in failures(events)] == [
+        (FailReason.TIMEOUT, State.WAIT_MORE)
+    ]
+    assert pair.host.data_to_send() == RST_B  # lost
+    pair.take()
+    pair.at(2.75)
+    assert pair.take() == ([], [])
+    assert pair.host.idle and pair.ctl.state is State.WAIT_ACK
+    pair.at(5.0)
+    host, ctl = pair.take()
+    assert host == [
+        Ignored("resent answer outside an exchange (ACKed again)", State.IDLE),
+        Ignored("stale packet outside an exchange (RST)", State.IDLE),
+    ]
+    assert ctl == [ExchangeFailed(FailReason.RESET, State.WAIT_ACK, "RST received")]
+    assert pair.to_host == [frame(ALARM_1), frame(ALARM_2)]
+    assert pair.to_ctl[-2:] == [ACK_B, RST_B]
+    assert pair.host.idle and pair.ctl.idle
+    assert pair.ctl.next_deadline() is None
 
 
 def test_stray_control_bytes_while_idle_are_ignored() -> None:
@@ -1235,19 +1471,6 @@ def test_an_upload_packet_the_controller_cannot_read_breaks_a_rule(data: bytes) 
     assert (failed.reason, failed.state) == (FailReason.RULE, State.UPLOAD_WAIT_PACKET)
 
 
-def test_a_second_request_while_the_controller_handles_one_breaks_a_rule() -> None:
-    ctl = ControllerLink()
-    ctl.receive_data(frame(AA), 0.0)
-    events = ctl.receive_data(frame(AB), 0.1)
-    assert ctl.data_to_send() == RST_B
-    [failed] = failures(events)
-    assert (failed.reason, failed.state) == (FailReason.RULE, State.HANDLING)
-    assert isinstance(failed.error, LinkRuleError)
-    assert (failed.error.role, failed.error.event) == ("controller", "packet")
-    with pytest.raises(LinkRuleError):
-        ctl.send_answer([OK], After.DONE, 0.2)
-
-
 def test_app_calls_in_the_wrong_state_raise_and_change_nothing() -> None:
     host = HostLink()
     with pytest.raises(LinkRuleError) as info:
@@ -1310,6 +1533,271 @@ def test_frame_decoder_misuse_is_not_swallowed() -> None:
 
     with pytest.raises(FrameError):
         HostLink().receive_data("02 30 03 30", 0.0)  # type: ignore[arg-type]
+
+
+# ===============================================================================================
+# The application's turn: line input that arrives meanwhile waits for its next call. An RST or
+# a packet among it shows that the peer moved on: the call then sends nothing.
+# ===============================================================================================
+def test_an_rst_right_behind_a_request_cancels_the_answer() -> None:
+    # Regression: this read crashed the simulator. The RST reset the controller before its
+    # application had seen the request, so its answer raised LinkRuleError. Now the RST waits
+    # for the answer, which it cancels: the host has given up on AA, and an answer would only
+    # meet its next request.
+    ctl = ControllerLink()
+    read = bytes.fromhex("02 FF 41 41 03 FF 12")
+    assert read == frame(AA) + RST_B
+    assert ctl.receive_data(read, 0.0) == [RequestReceived(AA)]
+    assert ctl.data_to_send() == b""
+    assert ctl.state is State.HANDLING and ctl.next_deadline() is None
+    assert ctl.send_answer([AA_ANSWER], After.DONE, 0.1) == [
+        ExchangeFailed(FailReason.RESET, State.HANDLING, CANCELLED)
+    ]
+    assert ctl.data_to_send() == b""
+    assert ctl.idle and ctl.next_deadline() is None
+    # Nothing is left held: the next request is taken at once.
+    assert ctl.receive_data(frame(AB), 0.2) == [RequestReceived(AB)]
+
+
+def test_a_second_request_right_behind_a_request_supersedes_it_unanswered() -> None:
+    ctl = ControllerLink()
+    assert ctl.receive_data(frame(AA) + frame(AB), 0.0) == [RequestReceived(AA)]
+    assert ctl.data_to_send() == b""
+    assert ctl.state is State.HANDLING and ctl.next_deadline() is None
+    assert ctl.send_answer([AA_ANSWER], After.DONE, 0.1) == [
+        ExchangeFailed(FailReason.SUPERSEDED, State.HANDLING, "a new request came first"),
+        RequestReceived(AB),
+    ]
+    assert ctl.data_to_send() == b""
+    assert ctl.state is State.HANDLING and ctl.next_deadline() is None
+    assert ctl.send_answer([ALARM_1, END], After.DONE, 0.2) == []
+    assert ctl.data_to_send() == frame(ALARM_1)
+    assert ctl.state is State.WAIT_ACK
+    assert ctl.next_deadline() == pytest.approx(2.2)
+
+
+def test_a_non_request_packet_behind_a_request_breaks_a_rule_in_place_of_the_answer() -> None:
+    ctl = ControllerLink()
+    assert ctl.receive_data(frame(AA) + frame(OK), 0.0) == [RequestReceived(AA)]
+    assert ctl.data_to_send() == b""
+    assert plain(ctl.send_answer([AA_ANSWER], After.DONE, 0.1)) == [
+        (
+            ExchangeFailed(
+                FailReason.RULE,
+                State.HANDLING,
+                "controller link in state HANDLING cannot take packet: during our turn",
+            ),
+            ("controller", "HANDLING", "packet"),
+        )
+    ]
+    assert ctl.data_to_send() == RST_B
+    assert ctl.idle and ctl.next_deadline() is None
+
+
+def test_held_input_is_taken_in_order_until_the_applications_next_turn() -> None:
+    ctl = ControllerLink()
+    read = frame(AA) + frame(AB) + RST_B
+    assert ctl.receive_data(read, 0.0) == [RequestReceived(AA)]
+    # AB starts the application's next turn: the RST behind it waits again, and cancels AB's
+    # answer in its turn.
+    assert ctl.send_answer([AA_ANSWER], After.DONE, 0.1) == [
+        ExchangeFailed(FailReason.SUPERSEDED, State.HANDLING, "a new request came first"),
+        RequestReceived(AB),
+    ]
+    assert ctl.data_to_send() == b""
+    assert ctl.state is State.HANDLING and ctl.next_deadline() is None
+    assert ctl.send_answer([ALARM_1, END], After.DONE, 0.2) == [
+        ExchangeFailed(FailReason.RESET, State.HANDLING, CANCELLED)
+    ]
+    assert ctl.data_to_send() == b""
+    assert ctl.idle and ctl.next_deadline() is None
+
+
+def test_input_held_across_reads_keeps_its_order() -> None:
+    ctl = ControllerLink()
+    assert ctl.receive_data(frame(AA), 0.0) == [RequestReceived(AA)]
+    assert ctl.receive_data(RST_B, 0.05) == []
+    assert ctl.receive_data(frame(AB), 0.08) == []
+    assert ctl.data_to_send() == b""
+    assert ctl.state is State.HANDLING
+    assert ctl.send_answer([AA_ANSWER], After.DONE, 0.1) == [
+        ExchangeFailed(FailReason.RESET, State.HANDLING, CANCELLED),
+        RequestReceived(AB),
+    ]
+    assert ctl.data_to_send() == b""
+    assert ctl.state is State.HANDLING and ctl.next_deadline() is None
+
+
+def test_held_noise_up_to_the_peers_move_is_dropped_and_the_rest_taken_in_order() -> None:
+    # The NAK and the corrupt frame before the RST belong to the exchange the host reset: no
+    # resend, no NAK. The corrupt frame after it is new line noise: NAKed in LISTEN.
+    ctl = ControllerLink()
+    read = frame(AA) + NAK_B + BAD_LRC + RST_B + BAD_LRC + frame(AB)
+    assert ctl.receive_data(read, 0.0) == [RequestReceived(AA)]
+    assert ctl.send_answer([AA_ANSWER], After.DONE, 0.1) == [
+        ExchangeFailed(FailReason.RESET, State.HANDLING, CANCELLED),
+        RequestReceived(AB),
+    ]
+    assert ctl.data_to_send() == NAK_B
+    assert ctl.state is State.HANDLING and ctl.next_deadline() is None
+    # Before a new request, the held noise is dropped; the request is kept.
+    ctl = ControllerLink()
+    assert ctl.receive_data(frame(AA) + NAK_B + BAD_LRC + frame(AB), 0.0) == [RequestReceived(AA)]
+    assert ctl.send_answer([AA_ANSWER], After.DONE, 0.1) == [
+        ExchangeFailed(FailReason.SUPERSEDED, State.HANDLING, "a new request came first"),
+        RequestReceived(AB),
+    ]
+    assert ctl.data_to_send() == b""
+    assert ctl.state is State.HANDLING and ctl.next_deadline() is None
+
+
+def test_held_noise_alone_is_taken_after_the_answer() -> None:
+    ctl = ControllerLink()
+    assert ctl.receive_data(frame(AA) + BAD_LRC + NAK_B, 0.0) == [RequestReceived(AA)]
+    assert ctl.send_answer([AA_ANSWER], After.DONE, 0.1) == []
+    assert ctl.data_to_send() == frame(AA_ANSWER) + NAK_B + frame(AA_ANSWER)
+    assert ctl.state is State.WAIT_ACK
+    assert ctl.next_deadline() == pytest.approx(2.1)
+
+
+def test_abort_is_the_applications_call_too() -> None:
+    ctl = ControllerLink()
+    assert ctl.receive_data(frame(AA) + RST_B, 0.0) == [RequestReceived(AA)]
+    assert ctl.abort(0.1) == [
+        ExchangeFailed(FailReason.ABORTED, State.HANDLING, "aborted by the application"),
+        Ignored("stray input", State.LISTEN),
+    ]
+    assert ctl.data_to_send() == RST_B
+    assert ctl.idle and ctl.next_deadline() is None
+
+
+def test_an_end_packet_read_with_the_upload_line_breaks_a_rule_in_place_of_the_reply() -> None:
+    # The host must wait for the line's reply before its END packet: both in one read is a rule
+    # it broke. The reply is not sent; RST is.
+    ctl = ControllerLink()
+    ctl.receive_data(frame(FB), 0.0)
+    ctl.send_answer([FB_OK], After.UPLOAD, 0.0)
+    ctl.data_to_send()
+    assert ctl.receive_data(frame(OK + LINE_1) + frame(END), 0.1) == [
+        UploadPacketReceived(LINE_1, end=False)
+    ]
+    assert ctl.data_to_send() == b""
+    assert ctl.state is State.UPLOAD_HANDLING and ctl.next_deadline() is None
+    assert plain(ctl.send_answer([FB_OK], After.UPLOAD, 0.2)) == [
+        (
+            ExchangeFailed(
+                FailReason.RULE,
+                State.UPLOAD_HANDLING,
+                "controller link in state UPLOAD_HANDLING cannot take packet: during our turn",
+            ),
+            ("controller", "UPLOAD_HANDLING", "packet"),
+        )
+    ]
+    assert ctl.data_to_send() == RST_B
+    assert ctl.idle and ctl.next_deadline() is None
+
+
+def test_a_stale_end_packet_behind_the_upload_reply_fails_the_upload_before_the_line() -> None:
+    host = HostLink()
+    host.send_request(FB, Shape.UPLOAD, 0.0)
+    host.data_to_send()
+    assert host.receive_data(frame(FB_OK) + frame(END), 0.1) == [UploadReady(FB_OK)]
+    assert host.data_to_send() == b""
+    assert host.state is State.UPLOAD_READY and host.next_deadline() is None
+    assert plain(host.send_upload_line(LINE_1, 0.2)) == [
+        (
+            ExchangeFailed(
+                FailReason.RULE,
+                State.UPLOAD_READY,
+                "host link in state UPLOAD_READY cannot take packet: during our turn",
+            ),
+            ("host", "UPLOAD_READY", "packet"),
+        )
+    ]
+    assert host.data_to_send() == RST_B
+    assert host.state is State.RESYNC
+    assert host.next_deadline() == pytest.approx(0.2 + GAP)
+
+
+@pytest.mark.parametrize(
+    ("held", "events", "written", "after"),
+    [
+        (
+            RST_B,
+            [ExchangeFailed(FailReason.RESET, State.UPLOAD_HANDLING, CANCELLED)],
+            b"",
+            State.LISTEN,
+        ),
+        (
+            frame(AA),
+            [
+                ExchangeFailed(
+                    FailReason.SUPERSEDED, State.UPLOAD_HANDLING, "a new request came first"
+                ),
+                RequestReceived(AA),
+            ],
+            b"",
+            State.HANDLING,
+        ),
+        (NAK_B, [ExchangeComplete(), Ignored("stray input", State.LISTEN)], ACK_B, State.LISTEN),
+    ],
+    ids=["RST", "request", "NAK"],
+)
+def test_input_held_behind_the_end_packet_meets_accept_upload(
+    held: bytes, events: list[LinkEvent], written: bytes, after: State
+) -> None:
+    ctl = ControllerLink()
+    ctl.receive_data(frame(FB), 0.0)
+    ctl.send_answer([FB_OK], After.UPLOAD, 0.0)
+    ctl.data_to_send()
+    assert ctl.receive_data(frame(END) + held, 0.1) == [UploadPacketReceived(b"", end=True)]
+    assert ctl.accept_upload(0.2) == events
+    assert ctl.data_to_send() == written
+    assert ctl.state is after
+    assert ctl.next_deadline() is None
+
+
+@pytest.mark.parametrize(
+    ("held", "events", "written", "after", "deadline"),
+    [
+        (
+            RST_B,
+            [ExchangeFailed(FailReason.RESET, State.UPLOAD_READY, CANCELLED)],
+            b"",
+            State.IDLE,
+            None,
+        ),
+        (
+            frame(FB_OK),
+            [
+                (
+                    ExchangeFailed(
+                        FailReason.RULE,
+                        State.UPLOAD_READY,
+                        "host link in state UPLOAD_READY cannot take packet: during our turn",
+                    ),
+                    ("host", "UPLOAD_READY", "packet"),
+                )
+            ],
+            RST_B,
+            State.RESYNC,
+            0.2 + 0.25,  # the default resync gap (GAP, below)
+        ),
+        (NAK_B, [], frame(END) * 2, State.UPLOAD_WAIT_ACK, 0.2 + 2.0),
+    ],
+    ids=["RST", "packet", "NAK"],
+)
+def test_input_held_behind_the_upload_reply_meets_the_end_packet(
+    held: bytes, events: list[object], written: bytes, after: State, deadline: float | None
+) -> None:
+    host = HostLink()
+    host.send_request(FB, Shape.UPLOAD, 0.0)
+    host.data_to_send()
+    assert host.receive_data(frame(FB_OK) + held, 0.1) == [UploadReady(FB_OK)]
+    assert plain(host.send_upload_end(0.2)) == events
+    assert host.data_to_send() == written
+    assert host.state is after
+    assert host.next_deadline() == (None if deadline is None else pytest.approx(deadline))
 
 
 # ===============================================================================================
@@ -1488,10 +1976,11 @@ def test_a_rule_broken_by_the_controller_starts_the_gap_too() -> None:
     host = HostLink()
     host.send_request(FB, Shape.UPLOAD, 0.0)
     host.receive_data(frame(FB_OK), 0.0)
+    host.send_upload_end(0.0)
     host.data_to_send()
-    events = host.receive_data(frame(FB_OK), 0.5)  # a packet where the host owes a line
+    events = host.receive_data(frame(FB_OK), 0.5)  # an OK reply in place of the lone ACK
     assert [(f.reason, f.state) for f in failures(events)] == [
-        (FailReason.RULE, State.UPLOAD_READY)
+        (FailReason.RULE, State.UPLOAD_WAIT_ACK)
     ]
     assert host.data_to_send() == RST_B
     assert host.state is State.RESYNC and host.next_deadline() == pytest.approx(0.75)
@@ -1529,31 +2018,76 @@ def _resynced(**options: float) -> HostLink:
 
 
 @pytest.mark.parametrize("data", [AA_ANSWER, ALARM_1, END, b"2", b"9", FB_OK])
-def test_resync_acks_and_drops_any_intact_packet(data: bytes) -> None:
+def test_resync_answers_any_intact_packet_with_rst_and_restarts_the_gap(data: bytes) -> None:
     host = _resynced()
     assert host.receive_data(frame(data), 2.1) == [
-        Ignored("packet outside an exchange (ACKed)", State.RESYNC)
+        Ignored("stale packet in the resync gap (RST)", State.RESYNC)
     ]
-    assert host.data_to_send() == ACK_B
-    assert host.state is State.RESYNC and host.next_deadline() == 2.0 + GAP
+    assert host.data_to_send() == RST_B
+    assert host.state is State.RESYNC
+    assert host.next_deadline() == pytest.approx(2.1 + GAP)
+    assert host.handle_timeout(2.3499) == []
+    assert host.state is State.RESYNC
+    assert host.handle_timeout(2.35) == []
+    assert host.data_to_send() == b""
+    assert host.idle and host.next_deadline() is None
 
 
-@pytest.mark.parametrize(
-    "data", [BAD_LRC, ACK_B, NAK_B, RST_B], ids=["corrupt", "ACK", "NAK", "RST"]
-)
-def test_resync_ignores_corrupt_packets_and_control_bytes(data: bytes) -> None:
+@pytest.mark.parametrize("data", [ACK_B, NAK_B, RST_B], ids=["ACK", "NAK", "RST"])
+def test_resync_ignores_control_bytes_and_keeps_the_deadline(data: bytes) -> None:
     host = _resynced()
     assert host.receive_data(data, 2.1) == [Ignored("stray input", State.RESYNC)]
     assert host.data_to_send() == b""
     assert host.state is State.RESYNC and host.next_deadline() == 2.0 + GAP
 
 
+def test_resync_restarts_the_gap_on_a_corrupt_frame_and_sends_nothing() -> None:
+    host = _resynced()
+    assert host.receive_data(BAD_LRC, 2.1) == [
+        Ignored("corrupt frame in the resync gap", State.RESYNC)
+    ]
+    assert host.data_to_send() == b""
+    assert host.state is State.RESYNC
+    assert host.next_deadline() == pytest.approx(2.1 + GAP)
+
+
 def test_resync_neither_naks_nor_rsts_a_run_of_corrupt_packets() -> None:
     host = _resynced()
     events = host.receive_data(BAD_LRC * (MAX_NAKS + 2), 2.1)
-    assert events == [Ignored("stray input", State.RESYNC)] * (MAX_NAKS + 2)
+    assert events == [Ignored("corrupt frame in the resync gap", State.RESYNC)] * (MAX_NAKS + 2)
     assert host.data_to_send() == b""
     assert host.state is State.RESYNC
+    assert host.next_deadline() == pytest.approx(2.1 + GAP)
+
+
+def test_a_frame_cut_short_in_the_gap_restarts_it_only_with_the_frame_that_cut_it() -> None:
+    host = _resynced()
+    assert host.receive_data(bytes.fromhex("02 30 B5"), 2.1) == []
+    assert host.next_deadline() == 2.0 + GAP
+    assert host.receive_data(frame(STALE), 2.2) == [
+        Ignored("frame cut short by a new STX", State.RESYNC),
+        Ignored("stale packet in the resync gap (RST)", State.RESYNC),
+    ]
+    assert host.data_to_send() == RST_B
+    assert host.next_deadline() == pytest.approx(2.2 + GAP)
+
+
+def test_a_deferred_request_waits_for_a_whole_quiet_gap() -> None:
+    host = _resynced()
+    assert host.send_request(BA, Shape.SINGLE, 2.05) == []
+    host.receive_data(frame(STALE), 2.1)
+    host.receive_data(BAD_LRC, 2.3)
+    assert host.data_to_send() == RST_B
+    assert host.next_deadline() == pytest.approx(2.3 + GAP)
+    # The first deadline has moved on: nothing goes out at 2.25 or 2.35.
+    assert host.handle_timeout(2.35) == []
+    assert host.handle_timeout(2.5499) == []
+    assert host.data_to_send() == b""
+    assert host.state is State.RESYNC
+    assert host.handle_timeout(2.55) == []
+    assert host.data_to_send() == frame(BA)
+    assert host.state is State.WAIT_ANSWER
+    assert host.next_deadline() == pytest.approx(2.55 + 2.0)
 
 
 def test_the_gap_with_nothing_deferred_ends_in_idle_and_nothing_before_it() -> None:
@@ -1601,14 +2135,17 @@ def test_a_request_during_the_gap_goes_out_exactly_at_its_end(
 
 
 def test_a_deferred_request_runs_a_whole_exchange() -> None:
-    pair = Pair()
-    pair.request(AC)  # the controller never answers
+    # AC's answer is lost; the controller (5 s) has not resent it when the host gives up.
+    pair = Pair(ctl=ControllerLink(timeout=5.0))
+    pair.request(AC)
+    pair.ctl.send_answer([STALE], After.DONE, 0.0)
+    assert pair.ctl.data_to_send() == frame(STALE)  # lost
     pair.at(2.0)
     host, ctl = pair.take()
     assert [(f.reason, f.state) for f in failures(host)] == [
         (FailReason.TIMEOUT, State.WAIT_ANSWER)
     ]
-    assert [(f.reason, f.state) for f in failures(ctl)] == [(FailReason.RESET, State.HANDLING)]
+    assert [(f.reason, f.state) for f in failures(ctl)] == [(FailReason.RESET, State.WAIT_ACK)]
     pair.request(AB, Shape.MULTI)
     assert pair.take() == ([], [])
     assert pair.to_ctl == [frame(AC), RST_B]
@@ -1626,9 +2163,10 @@ def test_a_deferred_request_runs_a_whole_exchange() -> None:
     assert pair.host.idle and pair.ctl.idle
 
 
-def test_a_stale_answer_in_the_gap_is_acked_and_never_delivered() -> None:
+def test_a_stale_answer_in_the_gap_is_stopped_and_never_delivered() -> None:
     # AC's answer is lost; the controller's resend crosses the host's RST on the line and
-    # arrives while the host's next request, BA, waits for the end of the gap.
+    # arrives while the host's next request, BA, waits for the end of the gap. The host answers
+    # it with RST and waits a whole gap from then.
     host, ctl = HostLink(), ControllerLink()
     host.send_request(AC, Shape.SINGLE, 0.0)
     assert ctl.receive_data(host.data_to_send(), 0.0) == [RequestReceived(AC)]
@@ -1643,25 +2181,28 @@ def test_a_stale_answer_in_the_gap_is_acked_and_never_delivered() -> None:
     stale = ctl.data_to_send()
     assert stale == frame(STALE)
     events += host.receive_data(stale, 2.06)
-    ack = host.data_to_send()
-    assert ack == ACK_B
-    assert ctl.receive_data(rst + ack, 2.07) == [
+    second_rst = host.data_to_send()
+    assert second_rst == RST_B
+    assert host.next_deadline() == pytest.approx(2.06 + GAP)
+    assert ctl.receive_data(rst + second_rst, 2.07) == [
         ExchangeFailed(FailReason.RESET, State.WAIT_ACK, "RST received"),
         Ignored("stray input", State.LISTEN),
     ]
     events += host.handle_timeout(2.25)
+    assert host.data_to_send() == b""
+    events += host.handle_timeout(2.31)
     request = host.data_to_send()
     assert request == frame(BA)
-    assert ctl.receive_data(request, 2.26) == [RequestReceived(BA)]
-    ctl.send_answer([OK], After.DONE, 2.3)
-    events += host.receive_data(ctl.data_to_send(), 2.31)
+    assert ctl.receive_data(request, 2.32) == [RequestReceived(BA)]
+    ctl.send_answer([OK], After.DONE, 2.33)
+    events += host.receive_data(ctl.data_to_send(), 2.34)
     assert events == [
         ExchangeFailed(FailReason.TIMEOUT, State.WAIT_ANSWER, "no answer within 2 s"),
-        Ignored("packet outside an exchange (ACKed)", State.RESYNC),
+        Ignored("stale packet in the resync gap (RST)", State.RESYNC),
         AnswerReceived(OK, 0x30, final=True),
         ExchangeComplete(),
     ]
-    assert ctl.receive_data(host.data_to_send(), 2.32) == [ExchangeComplete()]
+    assert ctl.receive_data(host.data_to_send(), 2.35) == [ExchangeComplete()]
 
 
 def _late_nak_scenario(
@@ -1711,15 +2252,15 @@ def test_without_a_gap_the_late_nak_resends_the_next_request() -> None:
     assert ctl_events == [
         RequestReceived(BA),
         ExchangeComplete(),  # the resent BA supersedes the answered one...
-        RequestReceived(BA),  # ...and runs again
-        Ignored("stray input", State.HANDLING),
-        ExchangeComplete(),
+        RequestReceived(BA),  # ...and runs again; the first answer's ACK, read with it, waited
+        ExchangeComplete(),  # for the second answer and is taken as its ACK
+        Ignored("stray input", State.LISTEN),  # the host's ACK of the second answer
     ]
     assert events == [
         ExchangeFailed(FailReason.TIMEOUT, State.WAIT_ANSWER, "no answer within 2 s"),
         AnswerReceived(OK, 0x30, final=True),
         ExchangeComplete(),
-        Ignored("packet outside an exchange (ACKed)", State.IDLE),
+        Ignored("resent answer outside an exchange (ACKed again)", State.IDLE),
     ]
 
 
@@ -1870,7 +2411,7 @@ def test_busy_through_a_failed_exchange_and_its_gap() -> None:
 
 
 # ===============================================================================================
-# Bugs in the new design (see the report): these fail against the current link.py
+# Regressions: bugs of the gap's first version, fixed in the link
 # ===============================================================================================
 def test_a_bad_request_in_the_gap_is_refused_at_once() -> None:
     # Every other state refuses a packet that cannot be framed in send_request itself, before
@@ -1909,3 +2450,121 @@ def test_a_re_ack_in_the_second_phase_waits_timeout_and_grace_after_the_copy() -
         Ignored("resent answer (ACKed again)", State.WAIT_SECOND)
     ]
     assert host.next_deadline() == pytest.approx(2.2 + 2.0 + 0.5)
+
+
+# ===============================================================================================
+# Design concerns, answered in the link: the peer may move on during the application's turn
+# ===============================================================================================
+@pytest.mark.parametrize("rst_lost", [False, True], ids=["RST held", "RST lost"])
+def test_an_answer_to_a_request_the_host_gave_up_never_lands_on_its_next_request(
+    rst_lost: bool,
+) -> None:
+    # The controller's application is slower than the host's timeout and gap (a busy
+    # simulator). The host's RST for AC and its next request, BA, wait in the controller's
+    # backlog; when the application answers AC at last, the held input shows that the host has
+    # moved on, so AC's answer is not sent (were it sent, the host, waiting for BA, would take
+    # it as BA's answer). With the RST lost, BA alone shows it.
+    pair = Pair()
+    pair.request(AC)
+    if rst_lost:
+        pair.now = 2.0
+        pair.host_events += pair.host.handle_timeout(2.0)
+        assert pair.host.data_to_send() == RST_B  # lost
+    else:
+        pair.at(2.0)
+    pair.request(BA)
+    pair.at(2.25)
+    host, ctl = pair.take()
+    assert [(f.reason, f.state) for f in failures(host)] == [
+        (FailReason.TIMEOUT, State.WAIT_ANSWER)
+    ]
+    assert ctl == [RequestReceived(AC)]
+    assert pair.to_ctl == ([frame(AC), frame(BA)] if rst_lost else [frame(AC), RST_B, frame(BA)])
+    assert pair.host.state is State.WAIT_ANSWER
+    pair.now = 2.3
+    pair.answer([STALE])  # AC's answer, late
+    assert pair.ctl.state is State.HANDLING
+    pair.answer([OK])  # BA's answer
+    host, ctl = pair.take()
+    assert pair.to_host == [frame(OK)]
+    assert host == [AnswerReceived(OK, 0x30, final=True), ExchangeComplete()]
+    cancelled = (
+        ExchangeFailed(FailReason.SUPERSEDED, State.HANDLING, "a new request came first")
+        if rst_lost
+        else ExchangeFailed(FailReason.RESET, State.HANDLING, CANCELLED)
+    )
+    assert ctl == [cancelled, RequestReceived(BA), ExchangeComplete()]
+    assert pair.host.idle and pair.ctl.idle
+
+
+def test_a_held_rst_does_not_discard_the_start_of_a_later_frame() -> None:
+    # An RST byte is only read between frames, so nothing of the exchange it ends is left
+    # unfinished in the decoder. Held for the application's turn, the RST is acted on at the
+    # application's call, when the start of the host's next request may have arrived: that
+    # start is kept, and the request is taken whole when its end arrives.
+    ctl = ControllerLink()
+    assert ctl.receive_data(frame(AA), 0.0) == [RequestReceived(AA)]
+    assert ctl.receive_data(RST_B, 0.1) == []
+    request = frame(BA)
+    assert ctl.receive_data(request[:3], 0.4) == []
+    assert ctl.send_answer([AA_ANSWER], After.DONE, 0.5) == [
+        ExchangeFailed(FailReason.RESET, State.HANDLING, CANCELLED)
+    ]
+    assert ctl.data_to_send() == b""
+    assert ctl.receive_data(request[3:], 0.6) == [RequestReceived(BA)]
+
+
+@pytest.mark.parametrize(
+    ("setup", "state"),
+    [
+        (SETUPS[(Role.CONTROLLER, State.WAIT_ACK)], State.WAIT_ACK),
+        (SETUPS[(Role.HOST, State.WAIT_ANSWER)], State.WAIT_ANSWER),
+    ],
+    ids=["controller", "host"],
+)
+def test_an_rst_read_with_the_start_of_a_frame_keeps_that_start(
+    setup: Callable[[], Link], state: State
+) -> None:
+    # The same without a hold: the RST is taken at once, and the start of the next frame read
+    # with it stays in the decoder.
+    link = setup()
+    request = frame(BA)
+    assert link.receive_data(RST_B + request[:3], T0 + 0.1) == [
+        ExchangeFailed(FailReason.RESET, state, "RST received")
+    ]
+    assert link.data_to_send() == b""
+    assert link.idle
+    events = link.receive_data(request[3:], T0 + 0.2)
+    if isinstance(link, ControllerLink):
+        assert events == [RequestReceived(BA)]
+    else:
+        # The idle host takes it as a stale packet and stops it: proof the frame was read whole.
+        assert events == [Ignored("stale packet outside an exchange (RST)", State.IDLE)]
+        assert link.data_to_send() == RST_B
+
+
+@pytest.mark.parametrize("stale", [FB_OK, b"\xff2"], ids=["resent reply", "stale refusal"])
+def test_a_packet_behind_the_upload_reply_is_not_the_next_lines_reply(stale: bytes) -> None:
+    # The controller sends nothing after an upload reply until the host's next packet, so a
+    # packet read behind it (the reply resent on a NAK the host gave a noise frame, a stale
+    # refusal) came before the next line and cannot be that line's reply. Held for the
+    # application's turn, it breaks a rule at the line's call: RST in place of the line, never
+    # a copy of the OK reply reporting the line accepted before the controller has read it, nor
+    # the upload refused.
+    host = HostLink()
+    host.send_request(FB, Shape.UPLOAD, 0.0)
+    host.data_to_send()
+    assert host.receive_data(frame(FB_OK) + frame(stale), 0.1) == [UploadReady(FB_OK)]
+    assert plain(host.send_upload_line(LINE_1, 0.2)) == [
+        (
+            ExchangeFailed(
+                FailReason.RULE,
+                State.UPLOAD_READY,
+                "host link in state UPLOAD_READY cannot take packet: during our turn",
+            ),
+            ("host", "UPLOAD_READY", "packet"),
+        )
+    ]
+    assert host.data_to_send() == RST_B
+    assert host.state is State.RESYNC
+    assert host.next_deadline() == pytest.approx(0.2 + GAP)

@@ -11,6 +11,13 @@ it, and no request reached the controller's application twice.
 The host application sends its next request as soon as the previous exchange has ended, failed
 or not: it is the link's own RESYNC gap that keeps a late NAK or resend of the old exchange off
 the new one.
+
+And with no line at all, the same bytes cut into reads differently. The application acts after
+each read, and line input that arrives in its turn waits for its call; if that input shows that
+the peer moved on (an RST, a packet), the call sends nothing. So a read boundary changes what a
+link does exactly where it falls inside a turn before such input: read together, the input
+cancels the application's packet; read later, it finds the packet sent. And whatever the reads,
+a link never sends its application's packet once it has read such input in the turn.
 """
 
 from __future__ import annotations
@@ -18,15 +25,30 @@ from __future__ import annotations
 import enum
 from collections import deque
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
+from typing import TypeVar
 
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from robostar.errors import RobostarError
-from robostar.protocol.frame import ACK, ETX, NAK, RST, STX, encode_packet, lrc
+from robostar.protocol.frame import (
+    ACK,
+    ETX,
+    NAK,
+    RST,
+    STX,
+    Control,
+    ControlKind,
+    FrameDecoder,
+    FrameEvent,
+    Packet,
+    encode_packet,
+    lrc,
+)
 from robostar.protocol.link import (
+    APP_TURN,
     TRANSITIONS,
     After,
     AnswerReceived,
@@ -35,6 +57,7 @@ from robostar.protocol.link import (
     ExchangeFailed,
     HostLink,
     Input,
+    Link,
     LinkEvent,
     RequestReceived,
     Role,
@@ -585,3 +608,232 @@ def test_the_detectable_model_spares_what_no_check_can_see() -> None:
     line.write(bytes((ACK, NAK, ACK)) + bytes.fromhex("02 41 42 03 03"), 0.0)
     assert line.arrived(0.0) == bytes((ACK, NAK)) + bytes.fromhex("02 41 43 03 03")
     assert [index for index, _, _ in line.applied] == [2, 5]
+
+
+# -- read boundaries ------------------------------------------------------------------------------
+UPLOAD_REQUEST = b"\xffFB0      RS.JOB001"
+LINE_INPUT = [
+    bytes((ACK,)),
+    bytes((NAK,)),
+    bytes((RST,)),
+    bytes.fromhex("02 30 41 03 00"),  # a bad LRC
+    bytes.fromhex("02 30 41") + encode_packet(b"0"),  # a frame cut short by the next
+]
+CONTROLLER_INPUT = st.sampled_from(
+    [
+        *LINE_INPUT,
+        *(encode_packet(d) for d in (b"\xffAA", b"\xffAB", UPLOAD_REQUEST, b"0L\n", b"4", b"0")),
+    ]
+)
+HOST_INPUT = st.sampled_from(
+    [*LINE_INPUT, *(encode_packet(d) for d in (b"\xff0", b"\xff2", b"0S", b"4", b"9"))]
+)
+
+
+class RecordingDecoder(FrameDecoder):
+    """A FrameDecoder that keeps every event it has given out, in order."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.given: list[FrameEvent] = []
+
+    def feed(self, data: bytes | bytearray | memoryview) -> list[FrameEvent]:
+        events = super().feed(data)
+        self.given += events
+        return events
+
+
+class Traced(Link):
+    """A link that notes where each of its application's turns started: the place, among the
+    frame events it has read, of the packet that started it."""
+
+    decoder: RecordingDecoder
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.decoder = RecordingDecoder()
+        self.turn_starts: list[int] = []
+
+    def _dispatch_frame(self, event: FrameEvent) -> None:
+        in_turn = self.state in APP_TURN
+        super()._dispatch_frame(event)
+        if self.state in APP_TURN and not in_turn:
+            assert isinstance(event, Packet)  # a new object each: found by identity
+            given = self.decoder.given
+            self.turn_starts.append(max(i for i, e in enumerate(given) if e is event))
+
+    def read_in_turn(self) -> list[FrameEvent]:
+        """What has been read since the packet that started the current turn."""
+        return self.decoder.given[self.turn_starts[-1] + 1 :]
+
+
+class TracedController(Traced, ControllerLink):
+    pass
+
+
+class TracedHost(Traced, HostLink):
+    pass
+
+
+def moved_on(event: FrameEvent) -> bool:
+    """Input that shows the peer moved on when it arrives in the application's turn."""
+    return isinstance(event, Packet) or event == Control(ControlKind.RST)
+
+
+Call = tuple[list[LinkEvent], bytes]
+"""What an application's call returned, and the bytes it sends first if its packet goes out."""
+
+
+def controller_turn(link: ControllerLink, events: list[LinkEvent]) -> Call:
+    """The controller application's call in its turn, from the last event it was given."""
+    last = events[-1]
+    if isinstance(last, UploadPacketReceived) and last.end:
+        return link.accept_upload(0.0), bytes((ACK,))
+    if isinstance(last, UploadPacketReceived) or last == RequestReceived(UPLOAD_REQUEST):
+        return link.send_answer([b"\xff0"], After.UPLOAD, 0.0), encode_packet(b"\xff0")
+    return link.send_answer([b"0x", b"4"], After.DONE, 0.0), encode_packet(b"0x")
+
+
+def host_turn(link: HostLink, events: list[LinkEvent]) -> Call:
+    """The host application's call in its turn: a line after the first reply, then the end."""
+    if sum(isinstance(e, UploadReady) for e in events) < 2:
+        return link.send_upload_line(b"L\n", 0.0), encode_packet(b"0L\n")
+    return link.send_upload_end(0.0), encode_packet(b"4")
+
+
+def check_call(read: list[FrameEvent], packet: bytes, out: bytes) -> None:
+    """An application's call, after ``read`` in its turn, wrote ``out``: its ``packet`` first
+    if nothing showed that the peer moved on, else nothing but refusals (RST, NAK)."""
+    if any(moved_on(event) for event in read):
+        assert set(out) <= {RST, NAK}, (read, out)
+    else:
+        assert out.startswith(packet), (read, out)
+
+
+def drive(
+    link: Traced,
+    chunks: list[bytes],
+    turn: Callable[[list[LinkEvent]], Call],
+    *,
+    check: bool = False,
+) -> tuple[list[object], bytes, State]:
+    """Feed ``chunks`` as separate reads; the application acts after each read whenever it is
+    its turn (with ``check``, each call is checked by :func:`check_call`). Returns the events
+    (a rule break's error by its message: exceptions compare by identity), the bytes written
+    and the state at the end."""
+    events: list[LinkEvent] = []
+    written = b""
+    for chunk in chunks:
+        events += link.receive_data(chunk, 0.0)
+        written += link.data_to_send()
+        while link.state in APP_TURN:
+            read = link.read_in_turn()
+            returned, packet = turn(events)
+            out = link.data_to_send()
+            if check:
+                check_call(read, packet, out)
+            events += returned
+            written += out
+    comparable: list[object] = [
+        (replace(e, error=None), str(e.error))
+        if isinstance(e, ExchangeFailed) and e.error is not None
+        else e
+        for e in events
+    ]
+    return comparable, written, link.state
+
+
+def reads(inputs: list[tuple[bytes, bool]]) -> list[bytes]:
+    """Whole frames and control bytes, a read ending after each one marked True."""
+    chunks: list[bytes] = []
+    chunk = b""
+    for data, read_ends in inputs:
+        chunk += data
+        if read_ends:
+            chunks.append(chunk)
+            chunk = b""
+    return [*chunks, chunk]
+
+
+def cut_short(inputs: list[tuple[bytes, bool]], link: Traced) -> set[int]:
+    """Where, in the run of ``link`` that read all ``inputs`` at once, a read ending after the
+    input of that index would fall inside a turn, before the input that cut it short.
+
+    In that run the application acts in each turn with the whole rest of the stream read, so a
+    turn is cut short by the first RST or packet after the packet that started it, if there is
+    one; a read ending before that input lets the application act first."""
+    owner = [i for i, (data, _) in enumerate(inputs) for _ in FrameDecoder().feed(data)]
+    assert len(owner) == len(link.decoder.given)
+    movers = sorted({owner[j] for j, e in enumerate(link.decoder.given) if moved_on(e)})
+    inside: set[int] = set()
+    for start in {owner[j] for j in link.turn_starts}:
+        mover = next((i for i in movers if i > start), None)
+        if mover is not None:
+            inside.update(range(start, mover))
+    return inside
+
+
+L = TypeVar("L", bound=Traced)
+
+
+def check_read_boundaries(
+    links: tuple[L, L], inputs: list[tuple[bytes, bool]], turn: Callable[[L, list[LinkEvent]], Call]
+) -> None:
+    """The first link reads ``inputs`` at once, the second in the reads they mark: the two do
+    the same unless a read ends inside a turn cut short, and then they differ."""
+    stream = b"".join(data for data, _ in inputs)
+    whole = drive(links[0], [stream], lambda events: turn(links[0], events))
+    split = drive(links[1], reads(inputs), lambda events: turn(links[1], events))
+    inside = cut_short(inputs, links[0])
+    cuts = {i for i, (_, read_ends) in enumerate(inputs[:-1]) if read_ends}
+    if cuts & inside:
+        # The application acted before input that, read with the rest, cancels its packet.
+        assert split != whole
+    else:
+        assert split == whole
+
+
+# Reads are cut between frames only: FrameDecoder's own tests cut inside frames, and a link that
+# ends an exchange with RST drops the unfinished frame it is reading (see test_link.py).
+@given(st.lists(st.tuples(CONTROLLER_INPUT, st.booleans()), max_size=12))
+def test_a_read_boundary_changes_what_the_controller_does_only_inside_a_turn_cut_short(
+    inputs: list[tuple[bytes, bool]],
+) -> None:
+    links = TracedController(), TracedController()
+    check_read_boundaries(links, inputs, controller_turn)
+
+
+@given(st.lists(st.tuples(HOST_INPUT, st.booleans()), max_size=12))
+def test_a_read_boundary_changes_what_the_host_does_only_inside_a_turn_cut_short(
+    inputs: list[tuple[bytes, bool]],
+) -> None:
+    links = TracedHost(), TracedHost()
+    for link in links:
+        link.send_request(UPLOAD_REQUEST, Shape.UPLOAD, 0.0)
+    check_read_boundaries(links, inputs, host_turn)
+
+
+def anywhere(stream: bytes, draw: st.DataObject) -> list[bytes]:
+    """``stream`` cut into reads at any bytes, inside frames too (empty reads included)."""
+    cuts = sorted(draw.draw(st.lists(st.integers(min_value=0, max_value=len(stream)))))
+    return [stream[a:b] for a, b in zip([0, *cuts], [*cuts, len(stream)], strict=True)]
+
+
+@given(st.lists(CONTROLLER_INPUT, max_size=12), st.data())
+def test_whatever_the_reads_the_controller_never_answers_once_the_host_moved_on(
+    inputs: list[bytes], draw: st.DataObject
+) -> None:
+    # drive() checks each call against what was read in its turn.
+    link = TracedController()
+    chunks = anywhere(b"".join(inputs), draw)
+    drive(link, chunks, lambda events: controller_turn(link, events), check=True)
+
+
+@given(st.lists(HOST_INPUT, max_size=12), st.data())
+def test_whatever_the_reads_the_host_never_sends_an_upload_packet_once_the_controller_moved_on(
+    inputs: list[bytes], draw: st.DataObject
+) -> None:
+    link = TracedHost()
+    link.send_request(UPLOAD_REQUEST, Shape.UPLOAD, 0.0)
+    chunks = anywhere(b"".join(inputs), draw)
+    drive(link, chunks, lambda events: host_turn(link, events), check=True)
