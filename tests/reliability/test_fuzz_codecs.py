@@ -151,6 +151,14 @@ def test_a_coordinate_with_four_decimals_is_refused() -> None:
         decode_request(b"\xffBD000     1.00     0.000     0.000     0.0004")
 
 
+def test_a_coordinate_too_wide_for_3_decimals_is_refused() -> None:
+    # Found by atheris: "2000004601" has no decimal point and fits 10 bytes as digits, but no
+    # sender can write it with the 3 decimals the field carries, so no host could have sent it.
+    with pytest.raises(FieldError, match="does not fit 10 bytes"):
+        decode_request(b"\xffGW000400000200000460101")
+    assert check_request(b"\xffGW000400000200000460101") == "FieldError"
+
+
 @pytest.mark.parametrize("request_data", REQUESTS)
 def test_every_sample_request_decodes(request_data: bytes) -> None:
     assert check_request(request_data) != "FieldError"

@@ -143,11 +143,15 @@ def parse_int(command: str, field: str, raw: bytes, *, flag: int = FLAG_REJECTED
 
 
 def parse_coord(command: str, field: str, raw: bytes) -> float:
-    """A coordinate field (spaces stripped, up to 3 decimals)."""
+    """A coordinate field (spaces stripped, up to 3 decimals), that a sender could have sent:
+    its value written with 3 decimals fits the field's width."""
     text = raw.decode("ascii", "replace").strip()
     if not re.fullmatch(r"[+-]?(\d+(\.\d{0,3})?|\.\d{1,3})", text):
         raise FieldError(command, field, f"{raw!r} is not a number with up to 3 decimals")
-    return float(text)
+    value = float(text)
+    if len(f"{value:.3f}") > len(raw):
+        raise FieldError(command, field, f"{raw!r} does not fit {len(raw)} bytes with 3 decimals")
+    return value
 
 
 def encode_using_axes(command: str, axes: Sequence[int]) -> bytes:
