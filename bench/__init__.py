@@ -1,0 +1,1 @@
+"""The robostar benchmarks (figures, never tests): run them all with ``python bench/run.py``."""

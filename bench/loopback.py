@@ -1,0 +1,255 @@
+"""Item 2, loopback TCP: exchanges per second and client CPU per exchange, side by side.
+
+Contenders, each a client in this process against a server in another process:
+
+- ``raw floor``: the three messages over blocking sockets (:mod:`bench.floor`);
+- ``pymodbus sync`` / ``pymodbus async``: read 10 holding registers from pymodbus's server;
+- ``robostar sync|async AA|AC``: :class:`~robostar.Client` / :class:`~robostar.AsyncClient`
+  against the simulator (``python -m robostar.sim``), AA (status) and AC (4-axis position);
+- the pymodbus clients and the four robostar ones again, each against a server as minimal
+  as the floor's that sends fixed answers (``python -m bench.floor modbus|canned``): each
+  client library's own speed, without its server's cost in the round trip. The issue's
+  targets are judged on the simulator rows;
+- ``robostar sync AA, proposed transport`` (against the simulator and the canned server):
+  the blocking client over :class:`bench.proposals.LeanTcpTransport`, the transport change
+  proposed in docs/performance.md, labelled as such.
+
+Every round runs each contender for a fixed time, in an order that rotates from round to
+round; the figures are medians over rounds, and each ratio is the median of the per-round
+ratios against the floor of the same round, so a noisy neighbour weighs on both alike. Client
+CPU is this process's user + system time; server CPU is read from the server process.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import sys
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+from bench import floor, modbus_ref
+from bench.measure import Row, median
+from bench.procs import ServerProcess, sim_command
+from bench.proposals import LeanTcpTransport
+from robostar import AsyncClient, Client
+
+__all__ = ["run"]
+
+RATE_TARGET = 0.85
+CPU_TARGET = 1.2
+_LIMIT = 10_000_000
+
+
+@dataclass
+class _Sample:
+    count: int
+    wall: float
+    cpu: float
+    server_cpu: float
+
+    @property
+    def rate(self) -> float:
+        return self.count / self.wall
+
+    @property
+    def cpu_us(self) -> float:
+        return self.cpu / self.count * 1e6
+
+    @property
+    def server_us(self) -> float:
+        return self.server_cpu / self.count * 1e6
+
+
+Loop = Callable[[float], int]
+"""Runs exchanges for about that many seconds; returns how many."""
+
+
+def _measure(loop: Loop, seconds: float, server: ServerProcess) -> _Sample:
+    server_before = server.cpu_seconds()
+    cpu = time.process_time()
+    wall = time.perf_counter()
+    count = loop(seconds)
+    wall = time.perf_counter() - wall
+    cpu = time.process_time() - cpu
+    return _Sample(count, wall, cpu, server.cpu_seconds() - server_before)
+
+
+def _sync_robostar(client: Client, what: str) -> Loop:
+    call = client.status if what == "AA" else lambda: client.position(1)
+
+    def loop(seconds: float) -> int:
+        end = time.perf_counter() + seconds
+        done = 0
+        while done < _LIMIT:
+            call()
+            done += 1
+            if not done & 63 and time.perf_counter() >= end:
+                break
+        return done
+
+    return loop
+
+
+async def _async_robostar_loop(client: AsyncClient, what: str, seconds: float) -> int:
+    end = time.perf_counter() + seconds
+    done = 0
+    while done < _LIMIT:
+        if what == "AA":
+            await client.status()
+        else:
+            await client.position(1)
+        done += 1
+        if not done & 63 and time.perf_counter() >= end:
+            break
+    return done
+
+
+def _host_port(url: str) -> tuple[str, int]:
+    host, port = url.removeprefix("tcp://").rsplit(":", 1)
+    return host, int(port)
+
+
+def run(*, seconds: float = 1.5, rounds: int = 7) -> tuple[dict[str, Any], list[Row]]:
+    samples: dict[str, list[_Sample]] = {}
+    with (
+        ServerProcess([sys.executable, "-m", "bench.floor"]) as floor_server,
+        ServerProcess([sys.executable, "-m", "bench.modbus_ref"]) as modbus_server,
+        ServerProcess(sim_command(count=3), ready_lines=3) as sim,
+        ServerProcess([sys.executable, "-m", "bench.floor", "canned"]) as canned,
+        ServerProcess([sys.executable, "-m", "bench.floor", "modbus"]) as mb_canned,
+        asyncio.Runner() as runner,
+    ):
+        floor_sock = floor.connect(floor_server.lines[0])
+        mb_sync = modbus_ref.sync_client(modbus_server.lines[0])
+        mb_async = runner.run(modbus_ref.async_client(modbus_server.lines[0]))
+        mbc_sync = modbus_ref.sync_client(mb_canned.lines[0])
+        mbc_async = runner.run(modbus_ref.async_client(mb_canned.lines[0]))
+        ours_sync = Client(sim.lines[0])
+        ours_async = AsyncClient(sim.lines[1])
+        runner.run(ours_async.connect())
+        canned_url = f"tcp://{canned.lines[0]}"
+        canned_sync = Client(canned_url)
+        # A controller of its own: a simulator answers the connection that wrote last, so two
+        # clients taking turns on one line could see each other's answers.
+        lean_sync = Client(LeanTcpTransport(*_host_port(sim.lines[2])))
+        lean_canned = Client(LeanTcpTransport(*_host_port(canned_url)))
+        canned_async = AsyncClient(canned_url)
+        runner.run(canned_async.connect())
+        contenders: dict[str, tuple[Loop, ServerProcess]] = {
+            "raw floor": (
+                lambda s: floor.client_loop(floor_sock, seconds=s, limit=_LIMIT),
+                floor_server,
+            ),
+            "pymodbus sync": (
+                lambda s: modbus_ref.sync_loop(mb_sync, seconds=s, limit=_LIMIT),
+                modbus_server,
+            ),
+            "pymodbus async": (
+                lambda s: runner.run(modbus_ref.async_loop(mb_async, seconds=s, limit=_LIMIT)),
+                modbus_server,
+            ),
+            "robostar sync AA": (_sync_robostar(ours_sync, "AA"), sim),
+            "robostar sync AC": (_sync_robostar(ours_sync, "AC"), sim),
+            "robostar async AA": (
+                lambda s: runner.run(_async_robostar_loop(ours_async, "AA", s)),
+                sim,
+            ),
+            "robostar async AC": (
+                lambda s: runner.run(_async_robostar_loop(ours_async, "AC", s)),
+                sim,
+            ),
+            "pymodbus sync, canned": (
+                lambda s: modbus_ref.sync_loop(mbc_sync, seconds=s, limit=_LIMIT),
+                mb_canned,
+            ),
+            "pymodbus async, canned": (
+                lambda s: runner.run(modbus_ref.async_loop(mbc_async, seconds=s, limit=_LIMIT)),
+                mb_canned,
+            ),
+            "robostar sync AA, canned": (_sync_robostar(canned_sync, "AA"), canned),
+            "robostar sync AC, canned": (_sync_robostar(canned_sync, "AC"), canned),
+            "robostar async AA, canned": (
+                lambda s: runner.run(_async_robostar_loop(canned_async, "AA", s)),
+                canned,
+            ),
+            "robostar async AC, canned": (
+                lambda s: runner.run(_async_robostar_loop(canned_async, "AC", s)),
+                canned,
+            ),
+            "robostar sync AA, proposed transport": (_sync_robostar(lean_sync, "AA"), sim),
+            "robostar sync AA, canned, proposed transport": (
+                _sync_robostar(lean_canned, "AA"),
+                canned,
+            ),
+        }
+        names = list(contenders)
+        try:
+            for loop, server in contenders.values():
+                _measure(loop, min(seconds, 0.2), server)  # warm-up
+            for r in range(rounds):
+                order = names[r % len(names) :] + names[: r % len(names)]
+                for name in order:
+                    loop, server = contenders[name]
+                    samples.setdefault(name, []).append(_measure(loop, seconds, server))
+        finally:
+            floor_sock.close()
+            mb_sync.close()
+            mb_async.close()
+            mbc_sync.close()
+            mbc_async.close()
+            ours_sync.close()
+            runner.run(ours_async.close())
+            canned_sync.close()
+            lean_sync.close()
+            lean_canned.close()
+            runner.run(canned_async.close())
+    return _report(samples, seconds, rounds)
+
+
+def _report(
+    samples: dict[str, list[_Sample]], seconds: float, rounds: int
+) -> tuple[dict[str, Any], list[Row]]:
+    floor_samples = samples["raw floor"]
+    results: dict[str, Any] = {"seconds": seconds, "rounds": rounds, "contenders": {}}
+    rows = []
+    for name, runs in samples.items():
+        rate_ratio = median(s.rate / f.rate for s, f in zip(runs, floor_samples, strict=True))
+        cpu_ratio = median(s.cpu_us / f.cpu_us for s, f in zip(runs, floor_samples, strict=True))
+        entry = {
+            "rate": median(s.rate for s in runs),
+            "client_cpu_us": median(s.cpu_us for s in runs),
+            "server_cpu_us": median(s.server_us for s in runs),
+            "rate_vs_floor": rate_ratio,
+            "cpu_vs_floor": cpu_ratio,
+            "rounds": [
+                {"rate": s.rate, "client_cpu_us": s.cpu_us, "server_cpu_us": s.server_us}
+                for s in runs
+            ],
+        }
+        results["contenders"][name] = entry
+        ours = name.startswith("robostar") and "canned" not in name and "proposed" not in name
+        rows.append(
+            Row(
+                "2 loopback",
+                f"{name}: exchanges/s",
+                f"{entry['rate']:,.0f} ({rate_ratio:.0%} of floor)",
+                f"≥ {RATE_TARGET:.0%} of floor" if ours else "",
+                rate_ratio >= RATE_TARGET if ours else None,
+            )
+        )
+        rows.append(
+            Row(
+                "2 loopback",
+                f"{name}: client CPU/exchange",
+                f"{entry['client_cpu_us']:.0f} µs ({cpu_ratio:.2f}× floor;"
+                f" server {entry['server_cpu_us']:.0f} µs)",
+                f"≤ {CPU_TARGET}× floor" if ours else "",
+                cpu_ratio <= CPU_TARGET if ours else None,
+            )
+        )
+    mb = results["contenders"]["pymodbus sync"]["rate"]
+    for name in ("robostar sync AA", "robostar async AA"):
+        results["contenders"][name]["vs_pymodbus_sync"] = results["contenders"][name]["rate"] / mb
+    return results, rows
