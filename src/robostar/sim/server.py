@@ -277,7 +277,9 @@ class PeerHost:
         self.endpoints: list[str] = []
         """What hosts can connect to: ``tcp://host:port`` URLs and pseudo-terminal paths."""
         self.failure: BaseException | None = None
-        self._selector = selectors.DefaultSelector()
+        # select() takes microsecond timeouts where epoll rounds up to whole milliseconds, which
+        # would make paced answers leave late; a host has only a few sockets.
+        self._selector = selectors.SelectSelector()
         self._wake_r, self._wake_w = socket.socketpair()
         self._wake_r.setblocking(False)
         self._wake_w.setblocking(False)

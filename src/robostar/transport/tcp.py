@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import select
 import socket
 
 from robostar.errors import PortError
@@ -56,6 +57,9 @@ class TcpTransport(Transport):
         except OSError as exc:
             raise tcp_open_error(self.url, exc) from exc
         sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        # Non-blocking once, waiting with select() only when the socket is not ready: a
+        # settimeout() before every call costs system calls on every exchange.
+        sock.setblocking(False)
         self._sock = sock
 
     def close(self) -> None:
@@ -73,9 +77,14 @@ class TcpTransport(Transport):
         sock = self._sock
         if sock is None:
             raise self._closed_error()
+        view = memoryview(data)
         try:
-            sock.settimeout(self.connect_timeout)
-            sock.sendall(data)
+            while view:
+                try:
+                    view = view[sock.send(view) :]
+                except BlockingIOError:
+                    if not select.select([], [sock], [], self.connect_timeout)[1]:
+                        raise TimeoutError("the connection stopped taking data") from None
         except OSError as exc:
             raise self._lost(exc) from exc
 
@@ -84,9 +93,13 @@ class TcpTransport(Transport):
         if sock is None:
             raise self._closed_error()
         try:
-            sock.settimeout(max(timeout, 0.0))
-            data = sock.recv(_RECV_SIZE)
-        except (TimeoutError, BlockingIOError):
+            try:
+                data = sock.recv(_RECV_SIZE)
+            except BlockingIOError:
+                if timeout <= 0 or not select.select([sock], [], [], timeout)[0]:
+                    return b""
+                data = sock.recv(_RECV_SIZE)
+        except BlockingIOError:
             return b""
         except OSError as exc:
             raise self._lost(exc) from exc
