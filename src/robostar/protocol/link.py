@@ -25,6 +25,7 @@ from robostar.protocol.frame import (
     RST,
     Control,
     ControlKind,
+    CorruptPacket,
     CorruptReason,
     FrameDecoder,
     FrameEvent,
@@ -339,6 +340,9 @@ class Link:
         self._last_received = b""  # host: last answer data, for resend detection
         self._last_ack_at = 0.0
         self._backlog: list[FrameEvent] = []  # line input held during the application's turn
+        self.corrupt_frames = 0
+        """Damaged frames received so far (a controller reports the last one's reason in KD)."""
+        self.last_corrupt: CorruptReason | None = None
 
     # -- driver interface ------------------------------------------------------------------
     def receive_data(self, data: bytes, now: float) -> list[LinkEvent]:
@@ -390,6 +394,9 @@ class Link:
             self._dispatch_frame(self._backlog.pop(0))
 
     def _dispatch_frame(self, event: FrameEvent) -> None:
+        if isinstance(event, CorruptPacket):
+            self.corrupt_frames += 1
+            self.last_corrupt = event.reason
         if isinstance(event, Packet):
             self._fire(Input.PACKET, event.data)
         elif isinstance(event, Control):
@@ -590,11 +597,15 @@ class HostLink(Link):
         self.shape = self._pending_shape
         self._corrupt = 0
         self._request_at = self._now
+        if self.shape is Shape.UPLOAD:
+            # FB's replies are never ACKed: a later copy of the answer before it is no resend.
+            self._last_received = b""
         self._send_packet(data)
         self.state = State.UPLOAD_WAIT_REPLY if self.shape is Shape.UPLOAD else State.WAIT_ANSWER
         self._arm(self.timeout)
 
     def _after_rst(self) -> None:
+        self._last_received = b""  # nothing of an exchange we reset is to be ACKed again
         if self.resync_gap > 0:
             self.state = State.RESYNC
             self._arm(self.resync_gap)

@@ -22,7 +22,7 @@ from robostar.commands.motion import JogContinue, JogStart
 from robostar.commands.system import MAX_TEXT
 from robostar.errors import FieldError
 from robostar.protocol.fields import FLAG_FAILED, FLAG_REJECTED, FLAG_UNSUPPORTED
-from robostar.protocol.frame import CorruptPacket, CorruptReason, FrameDecoder
+from robostar.protocol.frame import CorruptReason
 from robostar.protocol.link import (
     After,
     ControllerLink,
@@ -94,7 +94,6 @@ class VirtualController:
         self.executions: Counter[str] = Counter()
         self.requests = 0
         self._store = store
-        self._shadow = FrameDecoder()
         self._last_now: float | None = None
         self._jog_deadlines: dict[int, float] = {}
         self._second: _SecondPhase | None = None
@@ -109,10 +108,11 @@ class VirtualController:
     def receive_data(self, data: bytes, now: float) -> None:
         """Bytes the host wrote."""
         self._advance(now)
-        for event in self._shadow.feed(data):
-            if isinstance(event, CorruptPacket):
-                self._error(_CORRUPT_TEXT[event.reason])
-        self._dispatch(self.link.receive_data(data, now), now)
+        corrupt_before = self.link.corrupt_frames
+        events = self.link.receive_data(data, now)
+        if self.link.corrupt_frames != corrupt_before and self.link.last_corrupt is not None:
+            self._error(_CORRUPT_TEXT[self.link.last_corrupt])
+        self._dispatch(events, now)
         self._settle(now)
 
     def data_to_send(self, now: float) -> bytes:
