@@ -9,10 +9,7 @@ Contenders, each a client in this process against a server in another process:
 - the pymodbus clients and the four robostar ones again, each against a server as minimal
   as the floor's that sends fixed answers (``python -m bench.floor modbus|canned``): each
   client library's own speed, without its server's cost in the round trip. The issue's
-  targets are judged on the simulator rows;
-- ``robostar sync AA, proposed transport`` (against the simulator and the canned server):
-  the blocking client over :class:`bench.proposals.LeanTcpTransport`, the transport change
-  proposed in docs/performance.md, labelled as such.
+  targets are judged on the simulator rows.
 
 Every round runs each contender for a fixed time, in an order that rotates from round to
 round; the figures are medians over rounds, and each ratio is the median of the per-round
@@ -32,7 +29,6 @@ from typing import Any
 from bench import floor, modbus_ref
 from bench.measure import Row, median
 from bench.procs import ServerProcess, sim_command
-from bench.proposals import LeanTcpTransport
 from robostar import AsyncClient, Client
 
 __all__ = ["run"]
@@ -106,17 +102,14 @@ async def _async_robostar_loop(client: AsyncClient, what: str, seconds: float) -
     return done
 
 
-def _host_port(url: str) -> tuple[str, int]:
-    host, port = url.removeprefix("tcp://").rsplit(":", 1)
-    return host, int(port)
-
-
 def run(*, seconds: float = 1.5, rounds: int = 7) -> tuple[dict[str, Any], list[Row]]:
     samples: dict[str, list[_Sample]] = {}
     with (
         ServerProcess([sys.executable, "-m", "bench.floor"]) as floor_server,
         ServerProcess([sys.executable, "-m", "bench.modbus_ref"]) as modbus_server,
-        ServerProcess(sim_command(count=3), ready_lines=3) as sim,
+        # A controller each for the two clients: a simulator answers the connection that wrote
+        # last, so two clients taking turns on one line could see each other's answers.
+        ServerProcess(sim_command(count=2), ready_lines=2) as sim,
         ServerProcess([sys.executable, "-m", "bench.floor", "canned"]) as canned,
         ServerProcess([sys.executable, "-m", "bench.floor", "modbus"]) as mb_canned,
         asyncio.Runner() as runner,
@@ -131,10 +124,6 @@ def run(*, seconds: float = 1.5, rounds: int = 7) -> tuple[dict[str, Any], list[
         runner.run(ours_async.connect())
         canned_url = f"tcp://{canned.lines[0]}"
         canned_sync = Client(canned_url)
-        # A controller of its own: a simulator answers the connection that wrote last, so two
-        # clients taking turns on one line could see each other's answers.
-        lean_sync = Client(LeanTcpTransport(*_host_port(sim.lines[2])))
-        lean_canned = Client(LeanTcpTransport(*_host_port(canned_url)))
         canned_async = AsyncClient(canned_url)
         runner.run(canned_async.connect())
         contenders: dict[str, tuple[Loop, ServerProcess]] = {
@@ -178,11 +167,6 @@ def run(*, seconds: float = 1.5, rounds: int = 7) -> tuple[dict[str, Any], list[
                 lambda s: runner.run(_async_robostar_loop(canned_async, "AC", s)),
                 canned,
             ),
-            "robostar sync AA, proposed transport": (_sync_robostar(lean_sync, "AA"), sim),
-            "robostar sync AA, canned, proposed transport": (
-                _sync_robostar(lean_canned, "AA"),
-                canned,
-            ),
         }
         names = list(contenders)
         try:
@@ -202,8 +186,6 @@ def run(*, seconds: float = 1.5, rounds: int = 7) -> tuple[dict[str, Any], list[
             ours_sync.close()
             runner.run(ours_async.close())
             canned_sync.close()
-            lean_sync.close()
-            lean_canned.close()
             runner.run(canned_async.close())
     return _report(samples, seconds, rounds)
 
@@ -229,7 +211,7 @@ def _report(
             ],
         }
         results["contenders"][name] = entry
-        ours = name.startswith("robostar") and "canned" not in name and "proposed" not in name
+        ours = name.startswith("robostar") and "canned" not in name
         rows.append(
             Row(
                 "2 loopback",

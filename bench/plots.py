@@ -35,27 +35,6 @@ def plot_wire(wire: dict[str, Any], path: Path) -> None:
             label="raw-socket host, same simulator",
             zorder=3,
         )
-    variant = wire.get("variant", {})
-    if variant.get("cases"):
-        ax.scatter(
-            [variant["cases"][n]["seconds"] for n in names],
-            [i - 0.2 for i in y],
-            marker="|",
-            s=300,
-            color="#d9480f",
-            label="client, simulator waiting in select() (proposed)",
-            zorder=3,
-        )
-    if variant.get("raw_host"):
-        ax.scatter(
-            [variant["raw_host"][n]["seconds"] for n in names],
-            [i - 0.2 for i in y],
-            marker="x",
-            s=60,
-            color="#d9480f",
-            label="raw-socket host, simulator in select()",
-            zorder=3,
-        )
     for i, n in enumerate(names):
         ax.annotate(
             f"+{cases[n]['over']:.0%}",

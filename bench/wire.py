@@ -15,7 +15,6 @@ is the simulator's and the loopback's share, which no client can remove.
 
 from __future__ import annotations
 
-import sys
 import time
 from collections.abc import Callable
 from typing import Any
@@ -118,10 +117,8 @@ def _medians(runs: dict[str, list[dict[str, float]]]) -> dict[str, dict[str, Any
 
 
 def run(
-    *, lines: int = 2000, polls: int = 1000, rounds: int = 3, variant: bool = True
+    *, lines: int = 2000, polls: int = 1000, rounds: int = 3
 ) -> tuple[dict[str, Any], list[Row]]:
-    """``variant``: also run the simulator with the serving-loop change proposed in
-    docs/performance.md (:mod:`bench.sim_variant`), labelled as such."""
     job = job_lines(lines)
     runs, raw = _transfers(sim_command(baud=BAUD), job, polls, rounds)
     cases = _medians(runs)
@@ -150,21 +147,4 @@ def run(
         rows.append(
             Row("3 wire", f"{name}, raw-socket host", f"+{best['over']:.1%} over its floor")
         )
-    if variant:
-        args = [sys.executable, "-m", "bench.sim_variant", "select", *sim_command(baud=BAUD)[3:]]
-        tried, tried_raw = _transfers(args, job, polls, rounds)
-        results["variant"] = {
-            "change": "simulator loop waits in select()",
-            "cases": _medians(tried),
-            "raw_host": _medians(tried_raw),
-        }
-        for name, best in results["variant"]["cases"].items():
-            raw_over = results["variant"]["raw_host"][name]["over"]
-            rows.append(
-                Row(
-                    "3 wire",
-                    f"{name}, sim waiting in select() (proposed fix)",
-                    f"+{best['over']:.1%} (raw-socket host +{raw_over:.1%})",
-                )
-            )
     return results, rows

@@ -61,12 +61,11 @@ def test_loopback() -> None:
 
 
 def test_wire_and_plot(tmp_path: Path) -> None:
-    results, rows = wire.run(lines=12, polls=5, rounds=1, variant=True)
+    results, rows = wire.run(lines=12, polls=5, rounds=1)
     _check_rows(rows, "3")
     for case in results["cases"].values():
         assert case["bytes"] > 0 and case["seconds"] >= case["floor"] > 0
     assert set(results["raw_host"]) == set(results["cases"])
-    assert set(results["variant"]["cases"]) == set(results["cases"])
     plots.plot_wire(results, tmp_path / "wire.png")
     assert (tmp_path / "wire.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 

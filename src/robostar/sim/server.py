@@ -277,9 +277,14 @@ class PeerHost:
         self.endpoints: list[str] = []
         """What hosts can connect to: ``tcp://host:port`` URLs and pseudo-terminal paths."""
         self.failure: BaseException | None = None
-        # select() takes microsecond timeouts where epoll rounds up to whole milliseconds, which
-        # would make paced answers leave late; a host has only a few sockets.
-        self._selector = selectors.SelectSelector()
+        # A paced line waits in select(), whose timeouts are in microseconds: epoll rounds up
+        # to whole milliseconds, which would make paced answers leave late. Unpaced hosts keep
+        # epoll (select() cannot take descriptors past 1024, and --count serves many).
+        self._selector: selectors.BaseSelector = (
+            selectors.SelectSelector()
+            if isinstance(peer, PacedPeer)
+            else selectors.DefaultSelector()
+        )
         self._wake_r, self._wake_w = socket.socketpair()
         self._wake_r.setblocking(False)
         self._wake_w.setblocking(False)
