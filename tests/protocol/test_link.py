@@ -2565,3 +2565,12 @@ def test_a_packet_behind_the_upload_reply_is_not_the_next_lines_reply(stale: byt
     assert host.data_to_send() == RST_B
     assert host.state is State.RESYNC
     assert host.next_deadline() == pytest.approx(0.2 + GAP)
+
+
+def test_an_empty_packet_on_a_fresh_idle_host_is_stale_not_a_resend() -> None:
+    # Nothing was ACKed yet, so nothing can be resent: an empty packet is line debris.
+    host = HostLink()
+    events = host.receive_data(frame(b""), T0)
+    assert events == [Ignored("stale packet outside an exchange (RST)", State.IDLE)]
+    assert host.data_to_send() == RST_B
+    assert host.idle and host.next_deadline() is None

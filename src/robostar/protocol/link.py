@@ -634,7 +634,7 @@ class HostLink(Link):
         # else belongs to an exchange we gave up (a multi-packet answer still coming): RST, so
         # that it stops instead of running into our next request.
         self._good_packet()
-        if data == self._last_received:
+        if data and data == self._last_received:
             self._send_control(ACK)
             self._emit(Ignored("resent answer outside an exchange (ACKed again)", self.state))
         else:
