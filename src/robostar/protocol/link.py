@@ -17,7 +17,7 @@ import enum
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
-from robostar.errors import LinkRuleError, UsageError
+from robostar.errors import LinkRuleError, MalformedAnswerError, UsageError
 from robostar.protocol.fields import FLAG_END, FLAG_OK
 from robostar.protocol.frame import (
     ACK,
@@ -454,7 +454,14 @@ class Link:
         self.state = self._idle
         self._emit(event)
 
-    def _fail(self, reason: FailReason, detail: str = "", *, send_rst: bool) -> None:
+    def _fail(
+        self,
+        reason: FailReason,
+        detail: str = "",
+        *,
+        send_rst: bool,
+        error: LinkRuleError | None = None,
+    ) -> None:
         state = self.state
         self._deadline = None
         self.state = self._idle
@@ -462,16 +469,10 @@ class Link:
             self._send_control(RST)
             self.decoder.reset()
             self._after_rst()
-        self._emit(ExchangeFailed(reason, state, detail))
+        self._emit(ExchangeFailed(reason, state, detail, error))
 
     def _rule_broken(self, error: LinkRuleError) -> None:
-        state = self.state
-        self._deadline = None
-        self.state = self._idle
-        self._send_control(RST)
-        self.decoder.reset()
-        self._after_rst()
-        self._emit(ExchangeFailed(FailReason.RULE, state, str(error), error))
+        self._fail(FailReason.RULE, str(error), send_rst=True, error=error)
 
     def _after_rst(self) -> None:
         """Called when this end has just sent RST to end an exchange."""
@@ -681,10 +682,7 @@ class HostLink(Link):
             # Never shorten the wait: in WAIT_SECOND it runs to the announced work time.
             self._extend(self.timeout + self.resend_grace)
             return
-        try:
-            flag = split_answer(data).flag
-        except Exception:
-            flag = -1
+        flag = _flag_of(data)
         if flag not in (FLAG_OK, FLAG_END) and flag not in _ERROR_FLAGS:
             self._rule_broken(
                 LinkRuleError("host", self.state.value, "packet", f"unknown flag in {data!r}")
@@ -724,10 +722,7 @@ class HostLink(Link):
 
     def _h_upload_reply(self, data: bytes) -> None:
         self._good_packet()
-        try:
-            flag = split_answer(data).flag
-        except Exception:
-            flag = -1
+        flag = _flag_of(data)
         if flag == FLAG_OK:
             self.state = State.UPLOAD_READY
             self._deadline = None
@@ -760,10 +755,7 @@ class HostLink(Link):
     def _h_upload_final_reply(self, data: bytes) -> None:
         # The controller could not store the file: an error answer in place of the ACK.
         self._good_packet()
-        try:
-            flag = split_answer(data).flag
-        except Exception:
-            flag = -1
+        flag = _flag_of(data)
         if flag in _ERROR_FLAGS:
             self._emit(AnswerReceived(data, flag, final=True))
             self._finish(ExchangeComplete())
@@ -889,6 +881,14 @@ class ControllerLink(Link):
             return
         self._send_control(ACK)
         self._finish(ExchangeComplete())
+
+
+def _flag_of(data: bytes) -> int:
+    """An answer packet's flag, or -1 when the packet is too short to hold one."""
+    try:
+        return split_answer(data).flag
+    except MalformedAnswerError:
+        return -1
 
 
 def _expected_wait(data: bytes) -> float:
