@@ -4,7 +4,7 @@ VENV   ?= .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test lint check bench reliability clean
+.PHONY: demo test lint check bench reliability docs package clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -19,11 +19,24 @@ test: $(STAMP)
 	$(BIN)/python -m pytest
 
 lint: $(STAMP)
-	$(BIN)/ruff check src tests bench reliability
-	$(BIN)/ruff format --check src tests bench reliability
+	$(BIN)/ruff check src tests bench reliability tools
+	$(BIN)/ruff format --check src tests bench reliability tools
 	$(BIN)/mypy
 
 check: lint test
+
+# The documentation site (mkdocs + material + mkdocstrings) in strict mode: a broken link or
+# reference fails the build. Output in site/.
+docs: $(STAMP)
+	$(BIN)/python -m pip install --quiet -e '.[docs]'
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict --quiet
+
+# A wheel and an sdist in dist/, checked for the files a user needs (py.typed, the licence).
+package: $(STAMP)
+	$(BIN)/python -m pip install --quiet -e '.[package]'
+	rm -rf dist
+	$(BIN)/python -m build --quiet --outdir dist . >/dev/null
+	$(BIN)/python tools/check_dist.py dist
 
 bench: $(STAMP)
 	$(BIN)/python -m pip install --quiet -e '.[dev,bench]'
@@ -40,4 +53,4 @@ reliability: $(STAMP)
 	$(BIN)/python reliability/run.py table
 
 clean:
-	rm -rf $(VENV) build dist .pytest_cache .mypy_cache .ruff_cache .hypothesis
+	rm -rf $(VENV) build dist site .pytest_cache .mypy_cache .ruff_cache .hypothesis

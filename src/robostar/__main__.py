@@ -1,0 +1,5 @@
+"""``python -m robostar``: the same as the ``robostar`` command."""
+
+from robostar.cli.app import main
+
+main()
