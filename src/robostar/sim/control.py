@@ -21,7 +21,7 @@ from typing import Any
 
 from robostar.errors import UsageError
 from robostar.sim.alarms import ALL_CHANNELS
-from robostar.sim.server import PeerHost
+from robostar.serving.threaded import PeerHost
 
 __all__ = ["ControlServer", "send_control"]
 
@@ -29,6 +29,8 @@ __all__ = ["ControlServer", "send_control"]
 def _controller_of(host: PeerHost) -> Any:
     """The VirtualController inside a host's peer (under any fault or pacing wrappers)."""
     peer: Any = host.peer
+    if hasattr(peer, "controller"):
+        return peer.controller
     while not hasattr(peer, "model"):
         peer = peer.peer
     return peer
