@@ -20,8 +20,8 @@ from collections.abc import Sequence
 from typing import Any
 
 from robostar.errors import UsageError
-from robostar.sim.alarms import ALL_CHANNELS
 from robostar.serving.threaded import PeerHost
+from robostar.sim.alarms import ALL_CHANNELS
 
 __all__ = ["ControlServer", "send_control"]
 

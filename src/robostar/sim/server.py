@@ -172,7 +172,8 @@ class SimServer(PeerHost):
 
 
 class PtyServer(PeerHost):
-    """Serves one line (one session) on a pseudo-terminal; open :attr:`device_path` like a serial port."""
+    """Serves one line (one session) on a pseudo-terminal; open :attr:`device_path` like a
+    serial port."""
 
     def __init__(self, peer: SessionSource | BytePeer, *, name: str = "sim") -> None:
         super().__init__(peer, name=name)
