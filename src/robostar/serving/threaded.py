@@ -280,6 +280,8 @@ class PeerHost:
         self._line_of: dict[_Stream, _Line] = {}
         self._accept_paused_until: float | None = None
         self._accept_error_logged = False
+        self.accept_failures = 0
+        """Accepts that failed for want of descriptors or memory (each is followed by a rest)."""
         self._stop = False
         self._thread: threading.Thread | None = None
         self._closed = False
@@ -447,6 +449,7 @@ class PeerHost:
     def _pause_accepting(self, exc: OSError) -> None:
         """Out of descriptors: rest the listeners a while (the connection waits in the
         backlog) instead of waking at once for the same failure; say so once."""
+        self.accept_failures += 1
         if not self._accept_error_logged:
             self._accept_error_logged = True
             log.warning(
