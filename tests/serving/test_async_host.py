@@ -10,6 +10,7 @@ from robostar import AsyncClient, ChannelStatus
 from robostar.commands.status import ReadStatus
 from robostar.errors import FunctionFailedError, NotSupportedError
 from robostar.protocol.fields import FLAG_UNSUPPORTED
+from robostar.protocol.frame import encode_packet
 from robostar.serving import AsyncHost, Backend, Refusal, Request, Session
 
 STATUS = (ChannelStatus(servo_on=True), ChannelStatus(), ChannelStatus(alarm=True))
@@ -88,3 +89,28 @@ async def _past_the_limit() -> None:
         assert host.clients == 1
         for writer in (first, second):
             writer.close()
+
+
+class BuggyStatus(LateStatus):
+    def handle(self, request: Request) -> None:
+        if request.command.CODE == "KD":
+            raise RuntimeError("bug")
+        super().handle(request)
+
+
+def test_a_failing_session_is_dropped_alone(caplog: pytest.LogCaptureFixture) -> None:
+    asyncio.run(_failing_session())
+    assert "failed; dropped" in caplog.text
+
+
+async def _failing_session() -> None:
+    backend = BuggyStatus()
+    async with AsyncHost(lambda name: Session(backend, name=name)) as host:
+        address = await host.start()
+        async with AsyncClient(f"tcp://{address[0]}:{address[1]}") as good:
+            reader, writer = await asyncio.open_connection(*address)
+            writer.write(encode_packet(b"\xffKD"))
+            assert await asyncio.wait_for(reader.read(100), 2.0) == b""
+            writer.close()
+            assert await good.status() == STATUS
+            assert host.clients == 1

@@ -11,8 +11,10 @@ One machinery for the simulator and the line server; each connection is its own 
   (encoded by the command's ``encode_answer``) or ``request.refuse(reason, flag)`` (0x31, 0x32,
   0x33; the reason is the session's ``last_error``, KD's text); raising :class:`Refusal` refuses
   too. Two-phase commands (DB, DC, CE): ``answer(wait)`` sends the first answer, ``finish()``
-  (or ``refuse``) the second, always to the session that asked. Hooks: ``begin_upload``
-  (refuse an FB before its lines), ``note_error``, ``session_closed``.
+  (or ``refuse``) the second, always to the session that asked; once that session moved on,
+  ``request.live`` is False and answers are dropped. KD is the backend's to answer (the
+  session's ``last_error`` holds the last refusal of that session). Hooks: ``begin_upload``
+  (refuse an FB before its lines, synchronously), ``note_error``, ``session_closed``.
 - Hosts: :class:`AsyncHost` (asyncio, one session per TCP connection, ``max_clients``) and the
   threaded :class:`~robostar.serving.threaded.PeerHost` the simulator runs on (TCP clients and a
   pseudo-terminal, each its own line). Both drop one failing or stalled connection and go on.
@@ -41,14 +43,17 @@ from robostar.serving.address import (
 )
 from robostar.serving.aio import AsyncHost
 from robostar.serving.session import Backend, Refusal, Request, Session, UploadLimits
+from robostar.serving.threaded import PeerHost, SessionSource
 
 __all__ = [
     "DEFAULT_LISTEN",
     "AsyncHost",
     "Backend",
+    "PeerHost",
     "Refusal",
     "Request",
     "Session",
+    "SessionSource",
     "UploadLimits",
     "check_host",
     "check_port",

@@ -191,7 +191,9 @@ class Session:
 
     # -- BytePeer ------------------------------------------------------------------------------
     def receive_data(self, data: bytes, now: float) -> None:
-        """Bytes the host program wrote."""
+        """Bytes the host program wrote (ignored once closed)."""
+        if self.closed:
+            return
         self._now = now
         corrupt_before = self.link.corrupt_frames
         events = self.link.receive_data(data, now)
