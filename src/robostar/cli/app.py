@@ -7,13 +7,20 @@ pattern), so ``robostar decode`` starts without loading the client or the simula
 from __future__ import annotations
 
 import importlib
+import json
 from collections.abc import Sequence
 from typing import Any
 
 import click
 
 from robostar import __version__
-from robostar.cli.failures import EXIT_INTERRUPTED, EXIT_LINE, Failure, explain
+from robostar.cli.failures import (
+    EXIT_BAD_ARGUMENT,
+    EXIT_INTERRUPTED,
+    EXIT_LINE,
+    Failure,
+    explain,
+)
 from robostar.cli.render import Output
 from robostar.cli.session import DryRunDone, Session, Settings
 from robostar.errors import RobostarError
@@ -55,6 +62,7 @@ SUBCOMMANDS: dict[str, str] = {
     "sim": "robostar.cli.simcmd:sim",
     "sim-input": "robostar.cli.simcmd:sim_input",
     "demo": "robostar.cli.demo:demo",
+    "profiles": "robostar.cli.profilecmd:profiles",
 }
 
 
@@ -74,6 +82,23 @@ class RobostarGroup(click.Group):
             raise TypeError(f"{target} is not a click command")
         return command
 
+    def make_context(
+        self,
+        info_name: str | None,
+        args: list[str],
+        parent: click.Context | None = None,
+        **extra: Any,
+    ) -> click.Context:
+        json_mode = "--json" in args  # before parsing, which consumes ``args``
+        try:
+            return super().make_context(info_name, args, parent, **extra)
+        except click.UsageError as error:
+            # The root's own options failed to parse: no session yet, so look for --json here.
+            if json_mode:
+                _json_usage_error(error)
+                raise click.exceptions.Exit(EXIT_BAD_ARGUMENT) from error
+            raise
+
     def invoke(self, ctx: click.Context) -> Any:
         try:
             try:
@@ -84,9 +109,15 @@ class RobostarGroup(click.Group):
                     session.close()
         except DryRunDone:
             ctx.exit(0)
+        except click.UsageError as error:
+            session = ctx.find_object(Session)
+            if session is None or not session.out.json:
+                raise
+            _json_usage_error(error)
+            ctx.exit(EXIT_BAD_ARGUMENT)
         except RobostarError as error:
             session = ctx.find_object(Session)
-            port = session.settings.port if session else "?"
+            port = session.port_label if session else "?"
             out = session.out if session else Output(False)
             failure = explain(error, port)
             out.failure(failure)
@@ -106,16 +137,33 @@ class RobostarGroup(click.Group):
             ctx.exit(EXIT_LINE)
 
 
+def _json_usage_error(error: click.UsageError) -> None:
+    """A usage error as the JSON error object every --json failure prints (on stderr)."""
+    command = error.ctx.command_path if error.ctx is not None else None
+    hint = "Nothing was sent. Run the command with --help to see what it takes."
+    failure = Failure(EXIT_BAD_ARGUMENT, error.format_message(), hint, "UsageError", command)
+    click.echo(json.dumps(failure.as_json(), ensure_ascii=False), err=True)
+
+
 @click.group(cls=RobostarGroup, context_settings={"help_option_names": ["-h", "--help"]})
 @click.option(
     "--port",
     "-p",
     envvar="ROBOSTAR_PORT",
-    default="sim://",
-    show_default=True,
+    default=None,
     metavar="URL",
     help="The controller: /dev/ttyUSB0, serial://PATH?baudrate=N, tcp://HOST:PORT, or sim:// "
-    "(the built-in simulator). Also from ROBOSTAR_PORT.",
+    "(the built-in simulator). Also from ROBOSTAR_PORT. Required (or --robot) for every "
+    "command that talks to a controller.",
+)
+@click.option(
+    "--robot",
+    "-r",
+    envvar="ROBOSTAR_ROBOT",
+    default=None,
+    metavar="NAME",
+    help="A named controller from the profile file (see `robostar profiles`); --port overrides "
+    "its port. Also from ROBOSTAR_ROBOT.",
 )
 @click.option(
     "--timeout",
@@ -149,7 +197,8 @@ class RobostarGroup(click.Group):
 @click.pass_context
 def cli(
     ctx: click.Context,
-    port: str,
+    port: str | None,
+    robot: str | None,
     timeout: float | None,
     json_mode: bool,
     trace: str | None,
@@ -158,18 +207,20 @@ def cli(
 ) -> None:
     """robostar: the technician's console for a Robostar N1 controller.
 
-    Every command talks to the controller at --port; with no port it starts the built-in
-    simulator, so you can try everything safely. Exit codes: 0 done, 2 bad argument,
-    3 refused by the controller (with its reason), 4 the line failed.
+    Every command that talks to a controller needs a target: --port (or ROBOSTAR_PORT) or a
+    profile with --robot NAME; nothing picks one for you. --port sim:// is the built-in
+    simulator, safe to try everything on. Exit codes: 0 done, 2 bad argument,
+    3 refused by the controller (with its reason), 4 the line failed, 130 interrupted.
 
     \b
     Examples:
-      robostar demo                               # a guided tour on the simulator
+      robostar --port sim:// demo                  # a guided tour on the simulator
       robostar --port /dev/ttyUSB0 status
+      robostar --robot cell1 status                # a profile from `robostar profiles`
       robostar --port tcp://127.0.0.1:9100 --json position --kind xy
       robostar --dry-run move 100 200 0 0          # show the frames, send nothing
     """
-    ctx.obj = Session(Settings(port, timeout, json_mode, trace, channel, dry_run))
+    ctx.obj = Session(Settings(port, timeout, json_mode, trace, channel, dry_run, robot))
 
 
 def main(argv: Sequence[str] | None = None) -> None:

@@ -110,7 +110,7 @@ def doctor(session: Session, count: int) -> None:
       robostar --port /dev/ttyUSB0 doctor
       robostar --port tcp://192.0.2.10:20000 --json doctor
     """
-    port = session.settings.port
+    port = session.port
     timeout = session.settings.timeout or 0.5
     checks: list[Check] = [Check("robostar", None, f"version {robostar.__version__}")]
     if session.dry_run:

@@ -12,6 +12,8 @@ from rich.table import Table
 from rich.text import Text
 
 from robostar.cli.annotate import describe_request
+from robostar.cli.profiles import Profile
+from robostar.cli.profiles import profile as load_profile
 from robostar.cli.render import Output
 from robostar.commands import Command
 from robostar.protocol.frame import encode_packet
@@ -28,12 +30,13 @@ T = TypeVar("T")
 class Settings:
     """The global options."""
 
-    port: str
+    port: str | None
     timeout: float | None
     json: bool
     trace: str | None
     channel: int
     dry_run: bool
+    robot: str | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -48,6 +51,17 @@ class DryRunDone(Exception):
     """Raised after a dry run has printed its frames, to end the command without sending."""
 
 
+NO_TARGET = (
+    "no controller given: name one with --port URL (or the ROBOSTAR_PORT variable), or a "
+    "profile with --robot NAME (see `robostar profiles`); --port sim:// is the built-in simulator"
+)
+
+
+def is_simulator(port: str) -> bool:
+    """True for the built-in simulator's URLs."""
+    return port.strip().lower().startswith("sim:")
+
+
 class Session:
     """Shared by every command of one run; ``ctx.obj`` of the root group."""
 
@@ -56,6 +70,58 @@ class Session:
         self.out = Output(settings.json)
         self._client: Client | None = None
         self._client_options: dict[str, Any] = {}
+        self._profile: Profile | None = None
+        self._resolved = False
+
+    @property
+    def profile(self) -> Profile | None:
+        """The profile named by --robot (read on first use)."""
+        self._resolve()
+        return self._profile
+
+    @property
+    def port(self) -> str:
+        """The controller's URL: --port, ROBOSTAR_PORT, or the profile's; an error when none."""
+        self._resolve()
+        port = self.settings.port or (self._profile.port if self._profile else None)
+        if not port:
+            raise click.UsageError(NO_TARGET)
+        return port
+
+    @property
+    def port_label(self) -> str:
+        """The URL for messages, ``"(no port)"`` when none was given."""
+        try:
+            return self.port
+        except click.UsageError:
+            return "(no port)"
+
+    @property
+    def simulator(self) -> bool:
+        return is_simulator(self.port_label)
+
+    def banner(self) -> str:
+        """Which controller this run talks to: SIMULATOR when it is one, and the profile."""
+        port = self.port_label
+        parts = ["SIMULATOR" if is_simulator(port) else "controller", port]
+        if self._profile is not None:
+            parts.append(f"robot {self._profile.name}")
+        return " | ".join(parts)
+
+    def _resolve(self) -> None:
+        if self._resolved:
+            return
+        self._resolved = True
+        if self.settings.robot:
+            self._profile = load_profile(self.settings.robot)
+        self._mark_output()
+
+    def _mark_output(self) -> None:
+        port = self.settings.port or (self._profile.port if self._profile else None)
+        if port and is_simulator(port):
+            self.out.extra["simulator"] = True
+        if self._profile is not None:
+            self.out.extra["robot"] = self._profile.name
 
     @property
     def channel(self) -> int:
@@ -69,7 +135,9 @@ class Session:
         """``--json`` given after the command name."""
         if on and not self.settings.json:
             self.settings = replace(self.settings, json=True)
+            extra = self.out.extra
             self.out = Output(True)
+            self.out.extra.update(extra)
 
     def set_channel(self, channel: int) -> None:
         """``--channel`` given after the command name."""
@@ -88,12 +156,21 @@ class Session:
             # Imported here: `decode` and `raw --dry-run` run without opening any transport.
             from robostar.client import Client
 
-            options: dict[str, Any] = dict(self._client_options)
+            port = self.port
+            options: dict[str, Any] = {}
+            if self._profile is not None:
+                if self._profile.timeout is not None:
+                    options["timeout"] = self._profile.timeout
+                if self._profile.baud is not None and not is_simulator(port):
+                    options["baudrate"] = self._profile.baud
+            options.update(self._client_options)
             if self.settings.timeout is not None:
                 options["timeout"] = self.settings.timeout
             if self.settings.trace:
                 options["trace"] = self.settings.trace
-            self._client = Client(self.settings.port, **options)
+            if not self.settings.json and (self.simulator or self._profile is not None):
+                self.out.note(self.banner(), style="bold magenta" if self.simulator else "dim")
+            self._client = Client(port, **options)
         return self._client
 
     def close(self) -> None:
@@ -117,8 +194,8 @@ class Session:
         ]
         rows = [{"hex": p.frame.hex(" "), "meaning": p.meaning} for p in planned]
         self.out.result(
-            {"dry_run": True, "port": self.settings.port, "frames": rows, "note": note},
-            lambda: _plan_table(planned, note, self.settings.port),
+            {"dry_run": True, "port": self.port_label, "frames": rows, "note": note},
+            lambda: _plan_table(planned, note, self.port_label),
         )
         raise DryRunDone
 
