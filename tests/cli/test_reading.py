@@ -75,7 +75,11 @@ def test_io_reads(run: Run, as_json: AsJson) -> None:
     outputs = as_json(run("io", "out", "0", "--json"))
     assert outputs["on"] == []
     assert "out 0" in run("io", "out", "0").stdout
-    assert as_json(run("--json", "io", "boards")) == {"input_boards": 1, "output_boards": 1, "simulator": True}
+    assert as_json(run("--json", "io", "boards")) == {
+        "input_boards": 1,
+        "output_boards": 1,
+        "simulator": True,
+    }
     assert "1 input, 1 output" in run("io", "boards").stdout
 
 
@@ -106,7 +110,11 @@ def test_params_and_last_error(run: Run, as_json: AsJson) -> None:
 
 
 def test_ref_axis_read(run: Run, as_json: AsJson) -> None:
-    assert as_json(run("--json", "ref-axis")) == {"channel": 1, "reference_axis": 1, "simulator": True}
+    assert as_json(run("--json", "ref-axis")) == {
+        "channel": 1,
+        "reference_axis": 1,
+        "simulator": True,
+    }
     assert "reference axis: 1 (X)" in run("ref-axis").stdout
 
 

@@ -28,7 +28,7 @@ def _invoke(*args: str) -> tuple[int, str, str]:
 @pytest.mark.parametrize("argv", [["status"], ["servo", "on"], ["files", "ls"], ["doctor"]])
 def test_no_target_refuses_and_says_how(argv: list[str], tmp_path: Path) -> None:
     trace = tmp_path / "t.jsonl"
-    code, out, err = _invoke("--trace", str(trace), *argv)
+    code, _, err = _invoke("--trace", str(trace), *argv)
     assert code == 2
     assert "--port" in err and "--robot" in err and "sim://" in err
     assert not trace.exists() or trace.read_text() == ""
@@ -91,7 +91,9 @@ def test_profile_gives_the_target_and_shows_in_the_banner(tmp_path: Path) -> Non
     code, out, _ = _invoke("--robot", "bench", "--json", "profiles")
     listed = json.loads(out)
     assert code == 0 and [p["name"] for p in listed["profiles"]] == ["bench", "cell1"]
-    assert listed["profiles"][0]["active"] and listed["profiles"][0]["channels"] == {"1": "left arm"}
+    assert listed["profiles"][0]["active"] and listed["profiles"][0]["channels"] == {
+        "1": "left arm"
+    }
     assert listed["profiles"][1]["baud"] == 9600 and not listed["profiles"][1]["simulator"]
     code, out, _ = _invoke("profiles")
     assert code == 0 and "cell1" in out and "/dev/ttyUSB9" in out

@@ -122,7 +122,7 @@ def _profile(path: Path, name: str, table: object) -> Profile:
 def _channels(where: str, table: dict[str, object]) -> dict[int, str]:
     raw = table.get("channels", {})
     if not isinstance(raw, dict):
-        raise ProfileError(f"{where}.channels: must be a table such as {{ 1 = \"left arm\" }}")
+        raise ProfileError(f'{where}.channels: must be a table such as {{ 1 = "left arm" }}')
     channels: dict[int, str] = {}
     for key, value in raw.items():
         if key not in ("1", "2", "3"):
