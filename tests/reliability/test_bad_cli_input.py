@@ -100,6 +100,29 @@ CASES: list[tuple[list[str], str]] = [
     (["sim", "--baud", "5"], "baud"),
     (["decode", "--format", "xml"], "format"),
     (["decode", "--hex", "zz"], "hex"),
+    # #11: NaN, the infinities and timeouts the clock cannot wait for, refused before the wire
+    (["--timeout", "nan", "status"], "timeout"),
+    (["--timeout", "inf", "status"], "timeout"),
+    (["--timeout", "1e10", "status"], "timeout"),
+    (["home", "--wait-timeout", "nan"], "wait-timeout"),
+    (["home", "--wait-timeout", "inf"], "wait-timeout"),
+    (["home", "--wait-timeout", "1e10"], "wait-timeout"),
+    (["move", "1", "2", "--wait-timeout", "nan"], "wait-timeout"),
+    (["move", "1", "2", "--wait-timeout", "-inf"], "wait-timeout"),
+    (["move-point", "DEMO.PNT", "1", "--wait-timeout", "nan"], "wait-timeout"),
+    (["jog", "--for", "nan", "--direction", "+"], "for"),
+    (["jog", "--for", "inf", "--direction", "+"], "for"),
+    (["monitor", "--rate", "nan", "--count", "1"], "rate"),
+    (["monitor", "--rate", "inf", "--count", "1"], "rate"),
+    # #11: names the controller cannot hold are refused, never silently changed
+    (["files", "rm", "A B.JOB"], "name"),
+    (["files", "rm", "AB\x00.JOB"], "name"),
+    (["files", "get", " AB.JOB"], "name"),
+    (["files", "cp", "DEMO.JOB", "A B.JOB"], "new_name|new name"),
+    (["files", "mv", "DEMO.JOB", "AB\x00.JOB"], "new_name|new name"),
+    (["files", "put", "--name", "A B.JOB", "pyproject.toml"], "name"),
+    (["job", "select", "A B.JOB"], "name"),
+    (["move-point", "D MO.PNT", "1"], "file"),
 ]
 
 
@@ -112,6 +135,8 @@ def test_bad_cli_argument_exits_2_and_sends_nothing(
     case: tuple[list[str], str], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     argv, name = case
+    if "pyproject.toml" in argv:
+        (tmp_path / "pyproject.toml").write_text("X\n")
     monkeypatch.chdir(tmp_path)
     monkeypatch.delenv("ROBOSTAR_PORT", raising=False)
     trace = tmp_path / "trace.jsonl"

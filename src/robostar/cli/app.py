@@ -21,9 +21,10 @@ from robostar.cli.failures import (
     Failure,
     explain,
 )
+from robostar.cli.options import Finite
 from robostar.cli.render import Output
 from robostar.cli.session import DryRunDone, Session, Settings
-from robostar.errors import RobostarError
+from robostar.errors import RobostarError, UsageError
 
 __all__ = ["SUBCOMMANDS", "RobostarGroup", "cli", "main"]
 
@@ -113,13 +114,13 @@ class RobostarGroup(click.Group):
             session = ctx.find_object(Session)
             if session is None or not session.out.json:
                 raise
-            _json_usage_error(error)
+            _json_usage_error(error, session.frames_sent)
             ctx.exit(EXIT_BAD_ARGUMENT)
         except RobostarError as error:
             session = ctx.find_object(Session)
             port = session.port_label if session else "?"
             out = session.out if session else Output(False)
-            failure = explain(error, port)
+            failure = explain(error, port, session.frames_sent if session else 0)
             out.failure(failure)
             ctx.exit(failure.exit_code)
         except KeyboardInterrupt:
@@ -137,11 +138,11 @@ class RobostarGroup(click.Group):
             ctx.exit(EXIT_LINE)
 
 
-def _json_usage_error(error: click.UsageError) -> None:
+def _json_usage_error(error: click.UsageError, frames_sent: int = 0) -> None:
     """A usage error as the JSON error object every --json failure prints (on stderr)."""
     command = error.ctx.command_path if error.ctx is not None else None
-    hint = "Nothing was sent. Run the command with --help to see what it takes."
-    failure = Failure(EXIT_BAD_ARGUMENT, error.format_message(), hint, "UsageError", command)
+    usage = explain(UsageError(error.format_message()), "", frames_sent)
+    failure = Failure(EXIT_BAD_ARGUMENT, usage.message, usage.hint, "UsageError", command)
     click.echo(json.dumps(failure.as_json(), ensure_ascii=False), err=True)
 
 
@@ -167,7 +168,7 @@ def _json_usage_error(error: click.UsageError) -> None:
 )
 @click.option(
     "--timeout",
-    type=click.FloatRange(min=0.01),
+    type=Finite(min=0.01, max=3600.0),
     default=None,
     metavar="SECONDS",
     help="Reply timeout (default 2 s, as the manual says).",

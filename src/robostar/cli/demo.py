@@ -17,7 +17,7 @@ from rich.rule import Rule
 from rich.text import Text
 
 from robostar.cli.inout import port_json
-from robostar.cli.options import common_options
+from robostar.cli.options import Finite, common_options
 from robostar.cli.reading import (
     alarm_table,
     info_view,
@@ -265,14 +265,14 @@ def run_tour(tour: _Tour, jog_seconds: float) -> None:
 @click.command()
 @click.option(
     "--speedup",
-    type=click.FloatRange(1.0, 200.0),
+    type=Finite(1.0, 200.0),
     default=4.0,
     show_default=True,
     help="How much faster than real time the simulated robot moves.",
 )
 @click.option(
     "--pause",
-    type=click.FloatRange(0.0, 10.0),
+    type=Finite(0.0, 10.0),
     default=0.8,
     show_default=True,
     metavar="SECONDS",

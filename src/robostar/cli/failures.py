@@ -89,11 +89,13 @@ def _sentence(text: str) -> str:
     return text if text.endswith((".", "!", "?")) else text + "."
 
 
-def explain(error: RobostarError, port: str) -> Failure:
-    """The console's reading of ``error``; ``port`` is the URL the command used."""
+def explain(error: RobostarError, port: str, frames_sent: int = 0) -> Failure:
+    """The console's reading of ``error``; ``port`` is the URL the command used and
+    ``frames_sent`` how many frames the run had already written (so no message claims that
+    nothing was sent when something was)."""
     kind = type(error).__name__
     if isinstance(error, UsageError):
-        return _usage(error, kind)
+        return _usage(error, kind, frames_sent)
     if isinstance(error, ControllerError):
         return _refusal(error, kind)
     if isinstance(error, LineError | ProtocolError):
@@ -124,15 +126,22 @@ def _client_logic(error: RobostarError, kind: str, port: str) -> Failure:
     return Failure(EXIT_REFUSED, message, _STATE_HINT, kind)
 
 
-def _usage(error: UsageError, kind: str) -> Failure:
+def _usage(error: UsageError, kind: str, frames_sent: int) -> Failure:
     if isinstance(error, FieldError):
         message = _sentence(f"The {error.field} is not valid: {error.message}")
     else:
         message = _sentence(str(error))
+    if frames_sent:
+        sent = (
+            f"{frames_sent} frame(s) had already been sent before this check: "
+            "see `robostar status` for what they did."
+        )
+    else:
+        sent = "Nothing was sent."
     return Failure(
         EXIT_BAD_ARGUMENT,
         message,
-        "Nothing was sent. Run the command with --help to see what it takes.",
+        f"{sent} Run the command with --help to see what it takes.",
         kind,
     )
 

@@ -21,6 +21,7 @@ from robostar.cli.control import done
 from robostar.cli.options import common_options
 from robostar.cli.render import jsonable
 from robostar.cli.session import PlannedFrame, Session, pass_session
+from robostar.client.files import parse_name
 from robostar.commands import Command
 from robostar.commands.files import (
     CopyFile,
@@ -41,7 +42,7 @@ __all__ = ["backup", "file_lines", "files", "read_local", "restore"]
 
 
 def _name(text: str, what: str = "name") -> FileName:
-    name = FileName.parse(text)
+    name = parse_name(text, what)
     try:
         return name.check("", what)
     except FieldError as error:

@@ -21,7 +21,7 @@ from rich.table import Table
 from rich.text import Text
 
 from robostar.cli.keys import KeyReader, TerminalLost
-from robostar.cli.options import common_options
+from robostar.cli.options import Finite, common_options
 from robostar.cli.reading import position_json, position_view
 from robostar.cli.render import format_number, status_lamps
 from robostar.cli.session import Session, pass_session
@@ -306,7 +306,7 @@ class _PadRunner:
 @click.option(
     "--for",
     "seconds",
-    type=click.FloatRange(0.0, 60.0),
+    type=Finite(0.0, 60.0),
     default=None,
     metavar="SECONDS",
     help="Jog for this long, then stop (no terminal needed).",
@@ -320,7 +320,7 @@ class _PadRunner:
 @click.option("--linear", is_flag=True, help="Jog along X/Y/Z (LMOV) instead of one joint.")
 @click.option(
     "--hold",
-    type=click.FloatRange(0.1, 2.0),
+    type=Finite(0.1, 2.0),
     default=0.55,
     show_default=True,
     metavar="SECONDS",
@@ -329,7 +329,7 @@ class _PadRunner:
 )
 @click.option(
     "--poll",
-    type=click.FloatRange(0.05, 5.0),
+    type=Finite(0.05, 5.0),
     default=0.2,
     show_default=True,
     metavar="SECONDS",

@@ -22,7 +22,7 @@ from rich.table import Table
 from rich.text import Text
 
 from robostar.cli.keys import KeyReader, TerminalLost
-from robostar.cli.options import common_options
+from robostar.cli.options import Finite, common_options
 from robostar.cli.render import STATUS_BITS, format_number, jsonable, lamp, lamps_table
 from robostar.cli.session import Session, pass_session
 from robostar.commands.control import ReadSpeed
@@ -230,7 +230,7 @@ def _parse_list(text: str, lo: int, hi: int, what: str) -> list[int]:
 @click.command()
 @click.option(
     "--rate",
-    type=click.FloatRange(0.1, 20.0),
+    type=Finite(0.1, 20.0),
     default=2.0,
     show_default=True,
     help="Refreshes per second.",

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING, Any, TypeVar
+from typing import IO, TYPE_CHECKING, Any, TypeVar
 
 import click
 from rich.console import Group, RenderableType
@@ -16,10 +16,12 @@ from robostar.cli.profiles import Profile
 from robostar.cli.profiles import profile as load_profile
 from robostar.cli.render import Output
 from robostar.commands import Command
+from robostar.errors import UsageError
 from robostar.protocol.frame import encode_packet
 
 if TYPE_CHECKING:
     from robostar.client import Client
+    from robostar.client.trace import TraceRecord
 
 __all__ = ["DryRunDone", "PlannedFrame", "Session", "Settings", "pass_session"]
 
@@ -72,6 +74,9 @@ class Session:
         self._client_options: dict[str, Any] = {}
         self._profile: Profile | None = None
         self._resolved = False
+        self._trace_file: IO[str] | None = None
+        self.frames_sent = 0
+        """Frames this run wrote to the line: error messages never claim nothing was sent."""
 
     @property
     def profile(self) -> Profile | None:
@@ -167,16 +172,28 @@ class Session:
             if self.settings.timeout is not None:
                 options["timeout"] = self.settings.timeout
             if self.settings.trace:
-                options["trace"] = self.settings.trace
+                self._trace_file = _open_trace(self.settings.trace)
+            options["trace"] = self._on_frame
             if not self.settings.json and (self.simulator or self._profile is not None):
                 self.out.note(self.banner(), style="bold magenta" if self.simulator else "dim")
             self._client = Client(port, **options)
         return self._client
 
+    def _on_frame(self, record: TraceRecord) -> None:
+        if record.direction == "tx":
+            self.frames_sent += 1
+        if self._trace_file is not None:
+            self._trace_file.write(record.to_json() + "\n")
+
     def close(self) -> None:
-        if self._client is not None:
-            client, self._client = self._client, None
-            client.close()
+        try:
+            if self._client is not None:
+                client, self._client = self._client, None
+                client.close()
+        finally:
+            if self._trace_file is not None:
+                trace, self._trace_file = self._trace_file, None
+                trace.close()
 
     def send(self, command: Command[T]) -> T:
         """Run ``command`` on the controller; in a dry run, print its frame and stop."""
@@ -203,6 +220,13 @@ class Session:
         """Say what is about to move, before it does (not in a dry run, where nothing moves)."""
         if not self.dry_run:
             self.out.warn(text)
+
+
+def _open_trace(path: str) -> IO[str]:
+    try:
+        return open(path, "a", encoding="utf-8", buffering=1)
+    except OSError as error:
+        raise UsageError(f"trace: cannot open {path!r}: {error}") from error
 
 
 def _plan_table(planned: Sequence[PlannedFrame], note: str, port: str) -> RenderableType:

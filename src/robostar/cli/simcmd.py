@@ -8,7 +8,7 @@ from urllib.parse import parse_qsl
 
 import click
 
-from robostar.cli.options import common_options
+from robostar.cli.options import Finite, common_options
 from robostar.cli.session import Session, pass_session
 from robostar.errors import UsageError
 
@@ -54,7 +54,7 @@ __all__ = ["sim", "sim_input"]
 )
 @click.option(
     "--turnaround",
-    type=click.FloatRange(0.0, 5.0),
+    type=Finite(0.0, 5.0),
     default=0.0,
     metavar="SECONDS",
     help="Delay before each answer leaves, like a real controller's.",

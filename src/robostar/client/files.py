@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping, Sequence
 
 from robostar.client.exchange import Progress
@@ -13,10 +14,12 @@ from robostar.types import CoordSystem, JobFile, Point, PointFile
 
 __all__ = [
     "MAX_JOB_NUMBER",
+    "NAME_RULE",
     "download_job",
     "download_points",
     "file_name",
     "job_number",
+    "parse_name",
     "point_lines",
     "upload",
 ]
@@ -24,11 +27,27 @@ __all__ = [
 MAX_JOB_NUMBER = 200
 
 
+NAME_RULE = (
+    "a controller file name is 1-5 letters, digits or _ in one case, then .JOB or .PNT "
+    "(no spaces, no control characters)"
+)
+
+_NAME_TEXT = re.compile(r"[A-Za-z0-9_]*(\.[A-Za-z0-9_]*)?")
+
+
+def parse_name(text: str, name: str) -> FileName:
+    """``text`` as a FileName, refusing what the wire would silently change: the protocol's
+    parser drops spaces and NUL bytes (``"A B.JOB"`` would become ``AB.JOB``)."""
+    if not _NAME_TEXT.fullmatch(text):
+        raise UsageError(f"{name} {text!r}: {NAME_RULE}")
+    return FileName.parse(text)
+
+
 def file_name(value: object, name: str, kind: str | None = None) -> FileName:
     """A checked file name from a str or FileName; ``kind`` ("JOB"/"PNT") is added when the
     name has no extension, and required when it has one."""
     if isinstance(value, str):
-        parsed = FileName.parse(value)
+        parsed = parse_name(value, name)
     elif isinstance(value, FileName):
         parsed = value
     else:
