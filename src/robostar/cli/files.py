@@ -6,6 +6,9 @@ On disk a JOB file is its steps, one per line (MAIN to EOP); a PNT file is FA's 
 
 from __future__ import annotations
 
+import contextlib
+import os
+import tempfile
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -38,7 +41,7 @@ from robostar.protocol.fields import FileName
 from robostar.protocol.frame import encode_packet
 from robostar.types import CoordSystem, JobFile, Point, PointFile
 
-__all__ = ["backup", "file_lines", "files", "read_local", "restore"]
+__all__ = ["backup", "file_lines", "files", "read_local", "restore", "write_atomic"]
 
 
 def _name(text: str, what: str = "name") -> FileName:
@@ -47,6 +50,22 @@ def _name(text: str, what: str = "name") -> FileName:
         return name.check("", what)
     except FieldError as error:
         raise UsageError(f"{what} {text!r}: {error.message}") from None
+
+
+def write_atomic(target: Path, data: bytes) -> None:
+    """Write ``data`` to a temporary file beside ``target`` and rename it into place only when
+    complete: an interrupted or failed write never leaves a partial or empty ``target``."""
+    fd, temporary = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".part", dir=target.parent)
+    try:
+        with os.fdopen(fd, "wb") as stream:
+            stream.write(data)
+            stream.flush()
+            os.fsync(stream.fileno())
+        os.replace(temporary, target)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(temporary)
+        raise
 
 
 def file_lines(content: JobFile | PointFile) -> list[str]:
@@ -180,7 +199,10 @@ def files_get(session: Session, name: str, dest: str | None, xy: bool, force: bo
         else:
             click.echo(text, nl=False)
         return
-    target.write_text(text, encoding="ascii")
+    try:
+        write_atomic(target, text.encode("ascii"))
+    except OSError as error:
+        raise UsageError(f"dest: cannot write {str(target)!r}: {error}") from error
     done(
         session,
         f"Saved {file} ({len(lines)} lines) to {target}.",

@@ -8,7 +8,7 @@ from collections.abc import Mapping, Sequence
 from robostar.client.exchange import Progress
 from robostar.client.plan import Plan, call
 from robostar.commands.files import DownloadFile, ListFiles, UploadFile, format_point_line
-from robostar.errors import FieldError, UsageError
+from robostar.errors import FieldError, MalformedAnswerError, UsageError
 from robostar.protocol.fields import FileName
 from robostar.types import CoordSystem, JobFile, Point, PointFile
 
@@ -101,6 +101,12 @@ def download_job(channel: int, name: object, progress: Progress | None) -> Plan[
     content = yield from call(DownloadFile(channel, file), progress)
     if not isinstance(content, JobFile):
         raise UsageError(f"name: {file} is not a JOB file")
+    for number, line in enumerate(content.lines, 1):
+        if not line.isascii():
+            # FA decodes bytes outside ASCII as U+FFFD: the file cannot be kept as it was.
+            raise MalformedAnswerError(
+                "FA", f"{file} line {number} holds bytes that are not ASCII: {line!r}"
+            )
     return content
 
 
