@@ -114,13 +114,14 @@ class RobostarGroup(click.Group):
             session = ctx.find_object(Session)
             if session is None or not session.out.json:
                 raise
-            _json_usage_error(error, session.frames_sent)
+            _json_usage_error(error, session.frames_sent, session.changes_sent)
             ctx.exit(EXIT_BAD_ARGUMENT)
         except RobostarError as error:
             session = ctx.find_object(Session)
             port = session.port_label if session else "?"
             out = session.out if session else Output(False)
-            failure = explain(error, port, session.frames_sent if session else 0)
+            sent = (session.frames_sent, session.changes_sent) if session else (0, 0)
+            failure = explain(error, port, *sent)
             out.failure(failure)
             ctx.exit(failure.exit_code)
         except KeyboardInterrupt:
@@ -138,10 +139,10 @@ class RobostarGroup(click.Group):
             ctx.exit(EXIT_LINE)
 
 
-def _json_usage_error(error: click.UsageError, frames_sent: int = 0) -> None:
+def _json_usage_error(error: click.UsageError, frames_sent: int = 0, changes_sent: int = 0) -> None:
     """A usage error as the JSON error object every --json failure prints (on stderr)."""
     command = error.ctx.command_path if error.ctx is not None else None
-    usage = explain(UsageError(error.format_message()), "", frames_sent)
+    usage = explain(UsageError(error.format_message()), "", frames_sent, changes_sent)
     failure = Failure(EXIT_BAD_ARGUMENT, usage.message, usage.hint, "UsageError", command)
     click.echo(json.dumps(failure.as_json(), ensure_ascii=False), err=True)
 

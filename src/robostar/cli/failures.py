@@ -89,13 +89,16 @@ def _sentence(text: str) -> str:
     return text if text.endswith((".", "!", "?")) else text + "."
 
 
-def explain(error: RobostarError, port: str, frames_sent: int = 0) -> Failure:
-    """The console's reading of ``error``; ``port`` is the URL the command used and
-    ``frames_sent`` how many frames the run had already written (so no message claims that
-    nothing was sent when something was)."""
+def explain(
+    error: RobostarError, port: str, frames_sent: int = 0, changes_sent: int = 0
+) -> Failure:
+    """The console's reading of ``error``; ``port`` is the URL the command used,
+    ``frames_sent`` how many frames the run had already written and ``changes_sent`` how many
+    of its requests change the controller (so no message claims that nothing was sent when
+    something was)."""
     kind = type(error).__name__
     if isinstance(error, UsageError):
-        return _usage(error, kind, frames_sent)
+        return _usage(error, kind, frames_sent, changes_sent)
     if isinstance(error, ControllerError):
         return _refusal(error, kind)
     if isinstance(error, LineError | ProtocolError):
@@ -126,16 +129,18 @@ def _client_logic(error: RobostarError, kind: str, port: str) -> Failure:
     return Failure(EXIT_REFUSED, message, _STATE_HINT, kind)
 
 
-def _usage(error: UsageError, kind: str, frames_sent: int) -> Failure:
+def _usage(error: UsageError, kind: str, frames_sent: int, changes_sent: int) -> Failure:
     if isinstance(error, FieldError):
         message = _sentence(f"The {error.field} is not valid: {error.message}")
     else:
         message = _sentence(str(error))
-    if frames_sent:
+    if changes_sent:
         sent = (
-            f"{frames_sent} frame(s) had already been sent before this check: "
-            "see `robostar status` for what they did."
+            f"{changes_sent} command(s) that change the controller had already been sent "
+            "before this check: see `robostar status`."
         )
+    elif frames_sent:
+        sent = "Only reads were sent before this check; nothing on the controller changed."
     else:
         sent = "Nothing was sent."
     return Failure(

@@ -77,6 +77,8 @@ class Session:
         self._trace_file: IO[str] | None = None
         self.frames_sent = 0
         """Frames this run wrote to the line: error messages never claim nothing was sent."""
+        self.changes_sent = 0
+        """Requests this run sent that change the controller (CHANGES_STATE)."""
 
     @property
     def profile(self) -> Profile | None:
@@ -182,6 +184,8 @@ class Session:
     def _on_frame(self, record: TraceRecord) -> None:
         if record.direction == "tx":
             self.frames_sent += 1
+            if record.kind == "request" and _changes_state(record.command):
+                self.changes_sent += 1
         if self._trace_file is not None:
             self._trace_file.write(record.to_json() + "\n")
 
@@ -220,6 +224,12 @@ class Session:
         """Say what is about to move, before it does (not in a dry run, where nothing moves)."""
         if not self.dry_run:
             self.out.warn(text)
+
+
+def _changes_state(code: str | None) -> bool:
+    from robostar.commands import COMMANDS
+
+    return any(c.CHANGES_STATE for c in COMMANDS.get(code or "", ()))
 
 
 def _open_trace(path: str) -> IO[str]:
