@@ -69,3 +69,20 @@ def test_unwritable_destination_is_a_usage_error(run: Run, tmp_path: Path) -> No
     result = run("files", "get", "DEMO.JOB", str(tmp_path / "no" / "such" / "dir.JOB"))
     assert result.exit_code == 2
     assert "dest" in result.stderr.lower()
+
+
+def test_xy_point_file_keeps_its_kind(run: Run, tmp_path: Path) -> None:
+    saved = tmp_path / "DEMO.PNT"
+    assert run("files", "get", "DEMO.PNT", str(saved), "--xy").exit_code == 0
+    assert saved.read_text().splitlines()[0] == "#COORDS XY"
+    trace = tmp_path / "t.jsonl"
+    put = run("--trace", str(trace), "files", "put", str(saved))
+    assert put.exit_code == 2
+    assert "XY" in put.stderr and "degrees" in put.stderr
+    lines = trace.read_text().splitlines() if trace.exists() else []
+    sent = [line for line in lines if '"tx"' in line]
+    assert not any('"FB"' in line for line in sent)
+    angles = tmp_path / "angles" / "DEMO.PNT"
+    angles.parent.mkdir()
+    assert run("files", "get", "DEMO.PNT", str(angles)).exit_code == 0
+    assert run("files", "put", str(angles)).exit_code == 0

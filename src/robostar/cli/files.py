@@ -77,6 +77,10 @@ def file_lines(content: JobFile | PointFile) -> list[str]:
     return [format_point_line(n, content.points[n]) for n in sorted(content.points)]
 
 
+XY_HEADER = "#COORDS XY"
+"""First line of a point file saved with --xy: its coordinates are XY, not joint angles."""
+
+
 def read_local(path: Path, name: FileName) -> list[str]:
     """A local file's lines for upload; a PNT file's lines are checked as point lines."""
     try:
@@ -86,6 +90,12 @@ def read_local(path: Path, name: FileName) -> list[str]:
     except OSError as error:
         raise UsageError(f"cannot read {path}: {error.strerror or error}") from None
     lines = [line.rstrip("\r") for line in text.splitlines()]
+    if name.is_points and lines and lines[0].strip().upper() == XY_HEADER:
+        raise UsageError(
+            f"{path} holds points in XY (saved with --xy), but the controller's point files hold "
+            "joint angles: uploading it would write millimetres as degrees. Download it again "
+            "without --xy to upload it"
+        )
     if name.is_points:
         lines = [line for line in lines if line.strip()]
         for number, line in enumerate(lines, 1):
@@ -194,6 +204,9 @@ def files_get(session: Session, name: str, dest: str | None, xy: bool, force: bo
                 session.channel, file, coords="xy" if xy else "angle", progress=progress
             )
     lines = file_lines(content)
+    if xy and file.is_points and dest != "-":
+        # The kind travels with the file: `files put` refuses it rather than write mm as degrees.
+        lines = [XY_HEADER, *lines]
     text = "".join(line + "\n" for line in lines)
     if dest == "-":
         if session.out.json:
