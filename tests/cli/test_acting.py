@@ -101,7 +101,8 @@ def test_move_point(on: Run, as_json: AsJson) -> None:
 def test_refused_motion_reads_the_reason_and_exits_3(on: Run) -> None:
     human = on("move", "10", "20", "30", "0")
     assert human.exit_code == 3
-    assert "The controller refused BC" in human.stderr
+    assert "The move was refused by the controller" in human.stderr
+    assert "Protocol: BC" in human.stderr  # the code is in the detail line
     assert "robostar home" in human.stderr
     result = on("--json", "move", "10", "20", "30", "0")
     assert result.exit_code == 3

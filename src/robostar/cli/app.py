@@ -20,11 +20,12 @@ from robostar.cli.failures import (
     EXIT_LINE,
     Failure,
     explain,
+    with_alarms_left,
 )
 from robostar.cli.options import Finite
 from robostar.cli.render import Output
 from robostar.cli.session import DryRunDone, Session, Settings
-from robostar.errors import RobostarError, UsageError
+from robostar.errors import ControllerError, RobostarError, UsageError
 
 __all__ = ["SUBCOMMANDS", "RobostarGroup", "cli", "main"]
 
@@ -104,6 +105,12 @@ class RobostarGroup(click.Group):
         try:
             try:
                 return super().invoke(ctx)
+            except ControllerError:
+                # Read before the connection closes: did the refusal leave an alarm?
+                session = ctx.find_object(Session)
+                if session is not None:
+                    session.read_alarms_left()
+                raise
             finally:
                 session = ctx.find_object(Session)
                 if session is not None:
@@ -122,6 +129,8 @@ class RobostarGroup(click.Group):
             out = session.out if session else Output(False)
             sent = (session.frames_sent, session.changes_sent) if session else (0, 0)
             failure = explain(error, port, *sent)
+            if isinstance(error, ControllerError) and session is not None:
+                failure = with_alarms_left(failure, session.alarms_left)
             out.failure(failure)
             ctx.exit(failure.exit_code)
         except KeyboardInterrupt:

@@ -135,3 +135,5 @@ class Output:
         self.err.print(Text("Error: ", style="bold red") + Text(failure.message))
         if failure.hint:
             self.err.print(Text(failure.hint, style="dim"))
+        if failure.detail:
+            self.err.print(Text(failure.detail, style="dim"))

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from typing import IO, TYPE_CHECKING, Any, TypeVar
@@ -22,6 +23,7 @@ from robostar.protocol.frame import encode_packet
 if TYPE_CHECKING:
     from robostar.client import Client
     from robostar.client.trace import TraceRecord
+    from robostar.types import Alarm
 
 __all__ = ["DryRunDone", "PlannedFrame", "Session", "Settings", "pass_session"]
 
@@ -78,6 +80,7 @@ class Session:
         self.frames_sent = 0
         """Frames this run wrote to the line: error messages never claim nothing was sent."""
         self.changes_sent = 0
+        self.alarms_left: tuple[Alarm, ...] = ()
         """Requests this run sent that change the controller (CHANGES_STATE)."""
 
     @property
@@ -180,6 +183,17 @@ class Session:
                 self.out.note(self.banner(), style="bold magenta" if self.simulator else "dim")
             self._client = Client(port, **options)
         return self._client
+
+    def read_alarms_left(self) -> None:
+        """Read the controller's current alarms (AB) after a refusal into ``alarms_left``;
+        none if that fails or no connection is open (never opened just to look)."""
+        if self._client is None or self.dry_run:
+            return
+        from robostar.commands.status import ReadAlarms
+        from robostar.errors import RobostarError
+
+        with contextlib.suppress(RobostarError):
+            self.alarms_left = self._client.execute(ReadAlarms())
 
     def _on_frame(self, record: TraceRecord) -> None:
         if record.direction == "tx":
