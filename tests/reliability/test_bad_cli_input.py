@@ -123,6 +123,8 @@ CASES: list[tuple[list[str], str]] = [
     (["files", "put", "--name", "A B.JOB", "pyproject.toml"], "name"),
     (["job", "select", "A B.JOB"], "name"),
     (["move-point", "D MO.PNT", "1"], "file"),
+    # #12: --arm with joint angles would be ignored by the controller: refused
+    (["global", "set", "point", "5", "10", "20", "0", "0", "--arm", "left"], "arm"),
 ]
 
 

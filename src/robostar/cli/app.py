@@ -65,6 +65,7 @@ SUBCOMMANDS: dict[str, str] = {
     "sim-input": "robostar.cli.simcmd:sim_input",
     "demo": "robostar.cli.demo:demo",
     "profiles": "robostar.cli.profilecmd:profiles",
+    "teach": "robostar.cli.teach:teach",
 }
 
 
