@@ -104,6 +104,10 @@ def test_pad_teach_keys() -> None:
     assert pad.key("enter", 0.0) == [AskGoto(3)]
     assert pad.key("n", 0.0) == [Cancel()]
     pad.key("g", 0.0)
+    pad.key("3", 0.0)
+    pad.key("enter", 0.0)
+    assert pad.key("y", 0.0) == [Goto(3)]
+    pad.key("g", 0.0)
     assert pad.key("esc", 0.0) == [Cancel()] and pad.prompt() == ""
 
 
