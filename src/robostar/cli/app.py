@@ -66,6 +66,7 @@ SUBCOMMANDS: dict[str, str] = {
     "demo": "robostar.cli.demo:demo",
     "profiles": "robostar.cli.profilecmd:profiles",
     "teach": "robostar.cli.teach:teach",
+    "shell": "robostar.cli.shell:shell",
 }
 
 
@@ -232,7 +233,11 @@ def cli(
       robostar --port tcp://127.0.0.1:9100 --json position --kind xy
       robostar --dry-run move 100 200 0 0          # show the frames, send nothing
     """
-    ctx.obj = Session(Settings(port, timeout, json_mode, trace, channel, dry_run, robot))
+    session = Session(Settings(port, timeout, json_mode, trace, channel, dry_run, robot))
+    if isinstance(ctx.obj, Session):
+        # A line typed in `robostar shell`: it runs on the shell's open connection.
+        session.share(ctx.obj)
+    ctx.obj = session
 
 
 def main(argv: Sequence[str] | None = None) -> None:

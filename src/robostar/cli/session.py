@@ -81,6 +81,8 @@ class Session:
         """Frames this run wrote to the line: error messages never claim nothing was sent."""
         self.changes_sent = 0
         self.alarms_left: tuple[Alarm, ...] = ()
+        self._shared = False
+        self._child: Session | None = None
         """Requests this run sent that change the controller (CHANGES_STATE)."""
 
     @property
@@ -195,7 +197,28 @@ class Session:
         with contextlib.suppress(RobostarError):
             self.alarms_left = self._client.execute(ReadAlarms())
 
+    def share(self, parent: Session) -> None:
+        """Run on ``parent``'s connection (the shell's): same target, same open client, which
+        this session never closes; frames it sends are counted here too."""
+        if self.settings.port or self.settings.robot:
+            raise click.UsageError(
+                f"the shell is connected to {parent.port}; leave it (exit) to change --port/--robot"
+            )
+        self._profile = parent.profile
+        self.settings = replace(self.settings, port=parent.port)
+        self._resolved = False
+        self._resolve()
+        self._client = parent.client
+        self._shared = True
+        parent._child = self
+
+    def end_line(self) -> None:
+        """A shell line's session is done: its frames are no longer counted there."""
+        self._child = None
+
     def _on_frame(self, record: TraceRecord) -> None:
+        if self._child is not None:
+            self._child._on_frame(record)
         if record.direction == "tx":
             self.frames_sent += 1
             if record.kind == "request" and _changes_state(record.command):
@@ -207,7 +230,8 @@ class Session:
         try:
             if self._client is not None:
                 client, self._client = self._client, None
-                client.close()
+                if not self._shared:
+                    client.close()
         finally:
             if self._trace_file is not None:
                 trace, self._trace_file = self._trace_file, None
