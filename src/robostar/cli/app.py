@@ -113,6 +113,11 @@ class RobostarGroup(click.Group):
                 if session is not None:
                     session.read_alarms_left()
                 raise
+            except KeyboardInterrupt:
+                session = ctx.find_object(Session)
+                if session is not None:
+                    session.stop_started_motion()
+                raise
             finally:
                 session = ctx.find_object(Session)
                 if session is not None:
@@ -138,7 +143,9 @@ class RobostarGroup(click.Group):
         except KeyboardInterrupt:
             session = ctx.find_object(Session)
             out = session.out if session else Output(False)
-            out.failure(Failure(EXIT_INTERRUPTED, "Interrupted.", "", "KeyboardInterrupt"))
+            stopped = session.stopped_on_interrupt if session else ""
+            text = f"Interrupted; {stopped}." if stopped else "Interrupted."
+            out.failure(Failure(EXIT_INTERRUPTED, text, "", "KeyboardInterrupt"))
             ctx.exit(EXIT_INTERRUPTED)
         except OSError as error:
             # A port that fails mid-run without the client wrapping it: still a line failure.

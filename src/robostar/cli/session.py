@@ -83,6 +83,9 @@ class Session:
         self.alarms_left: tuple[Alarm, ...] = ()
         self._shared = False
         self._child: Session | None = None
+        self._motion: tuple[str, int] | None = None
+        self.stopped_on_interrupt = ""
+        """What Ctrl-C stopped (a motion this run started), for the message."""
         """Requests this run sent that change the controller (CHANGES_STATE)."""
 
     @property
@@ -212,6 +215,41 @@ class Session:
         self._shared = True
         parent._child = self
 
+    def stop_started_motion(self) -> None:
+        """After Ctrl-C: stop a motion this run started and that is still going (CI for homing,
+        CD for a job, BG for a jog, CF for a move, which has no gentler stop)."""
+        if self._motion is None or self._client is None:
+            return
+        code, channel = self._motion
+        from robostar.commands.control import EmergencyStop, StopHoming, StopJob
+        from robostar.commands.motion import JogStop
+        from robostar.commands.status import ReadStatus
+        from robostar.errors import RobostarError
+
+        try:
+            status = self._client.execute(ReadStatus())[channel - 1]
+            if not status.running and status.in_position:
+                return
+            stop = _STOPS[code]
+            command = {
+                "CI": StopHoming(channel),
+                "CD": StopJob(channel),
+                "BG": JogStop(channel),
+                "CF": EmergencyStop(),
+            }[stop]
+            self._client.execute(command)
+        except (RobostarError, KeyboardInterrupt):
+            self.stopped_on_interrupt = f"could not stop the {code} motion: check the robot"
+            return
+        words = {
+            "CI": f"stopped the homing of channel {channel} (CI)",
+            "CD": f"stopped the job of channel {channel} (CD)",
+            "BG": f"stopped the jog of channel {channel} (BG)",
+            "CF": f"stopped the move of channel {channel} with an emergency stop (CF): "
+            "clear its alarm with `robostar reset`",
+        }
+        self.stopped_on_interrupt = words[stop]
+
     def end_line(self) -> None:
         """A shell line's session is done: its frames are no longer counted there."""
         self._child = None
@@ -223,6 +261,9 @@ class Session:
             self.frames_sent += 1
             if record.kind == "request" and _changes_state(record.command):
                 self.changes_sent += 1
+            if record.kind == "request" and record.command in _STOPS:
+                channel = (record.fields or {}).get("channel", self.channel)
+                self._motion = (record.command, int(channel))
         if self._trace_file is not None:
             self._trace_file.write(record.to_json() + "\n")
 
@@ -262,6 +303,10 @@ class Session:
         """Say what is about to move, before it does (not in a dry run, where nothing moves)."""
         if not self.dry_run:
             self.out.warn(text)
+
+
+_STOPS = {"BA": "CI", "CC": "CD", "BE": "BG", "BF": "BG", "BB": "CF", "BC": "CF", "BD": "CF"}
+"""The stop for each motion a run may start (a move has only the emergency stop)."""
 
 
 def _changes_state(code: str | None) -> bool:
