@@ -7,7 +7,9 @@ On disk a JOB file is its steps, one per line (MAIN to EOP); a PNT file is FA's 
 from __future__ import annotations
 
 import contextlib
+import fnmatch
 import os
+import re
 import tempfile
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -81,6 +83,9 @@ XY_HEADER = "#COORDS XY"
 """First line of a point file saved with --xy: its coordinates are XY, not joint angles."""
 
 
+_GLOB = re.compile(r"[A-Za-z0-9_.*?\[\]!-]+")
+
+
 def read_local(path: Path, name: FileName) -> list[str]:
     """A local file's lines for upload; a PNT file's lines are checked as point lines."""
     try:
@@ -151,12 +156,26 @@ def files() -> None:
 def files_ls(session: Session, pattern: str) -> None:
     """List the channel's JOB and PNT files (FD): number, name, size, steps.
 
+    PATTERN is a file name or a glob (*, ?, [...]), matched without regard to case; the
+    controller's FD takes only * or one name, so a glob lists * and filters here.
+
     \b
     Example:
       robostar files ls
+      robostar files ls '*.PNT'
       robostar --channel 2 files ls DEMO.JOB
     """
-    records = session.send(ListFiles(session.channel, pattern))
+    if pattern == "*":
+        records = session.send(ListFiles(session.channel, "*"))
+    elif set(pattern) & set("*?["):
+        if not _GLOB.fullmatch(pattern):
+            raise UsageError(
+                f"pattern {pattern!r}: a glob of letters, digits, _, ., *, ? and [...] only"
+            )
+        listed = session.send(ListFiles(session.channel, "*"))
+        records = tuple(r for r in listed if fnmatch.fnmatchcase(r.name.upper(), pattern.upper()))
+    else:
+        records = session.send(ListFiles(session.channel, str(_name(pattern, "pattern"))))
 
     def view() -> RenderableType:
         if not records:

@@ -61,6 +61,21 @@ NO_TARGET = (
 )
 
 
+def describe_url(port: str) -> str:
+    """``port`` with the TCP port a ``tcp://host`` URL will use said aloud."""
+    from urllib.parse import urlsplit
+
+    from robostar.transport.url import DEFAULT_TCP_PORT
+
+    if not port.lower().startswith("tcp://"):
+        return port
+    try:
+        given = urlsplit(port).port
+    except ValueError:
+        return port
+    return port if given is not None else f"{port} (default port {DEFAULT_TCP_PORT})"
+
+
 def is_simulator(port: str) -> bool:
     """True for the built-in simulator's URLs."""
     return port.strip().lower().startswith("sim:")
@@ -105,9 +120,10 @@ class Session:
 
     @property
     def port_label(self) -> str:
-        """The URL for messages, ``"(no port)"`` when none was given."""
+        """The URL for messages (with the TCP port used when the URL gave none), ``"(no port)"``
+        when none was given."""
         try:
-            return self.port
+            return describe_url(self.port)
         except click.UsageError:
             return "(no port)"
 
@@ -184,7 +200,8 @@ class Session:
             if self.settings.trace:
                 self._trace_file = _open_trace(self.settings.trace)
             options["trace"] = self._on_frame
-            if not self.settings.json and (self.simulator or self._profile is not None):
+            shown = self.simulator or self._profile is not None or describe_url(port) != port
+            if not self.settings.json and shown:
                 self.out.note(self.banner(), style="bold magenta" if self.simulator else "dim")
             self._client = Client(port, **options)
         return self._client
