@@ -36,8 +36,9 @@ def test_a_bad_line_does_not_end_the_shell(run: Run) -> None:
 
 
 def test_lines_cannot_change_the_target(run: Run) -> None:
-    result = run("shell", input="--port tcp://127.0.0.1:1 status\n")
+    result = run("shell", input="--port tcp://127.0.0.1:1 status\n--trace x.jsonl status\n")
     assert "leave it (exit) to change --port" in result.output
+    assert "give it to `robostar shell` itself" in result.output
 
 
 def test_shell_needs_a_target(run: Run) -> None:

@@ -65,6 +65,8 @@ def test_simulator_is_named_in_human_and_json_output() -> None:
     assert code == 0 and "SIMULATOR" in err
     code, out, _ = _invoke("--port", SIM, "--json", "info")
     assert code == 0 and json.loads(out)["simulator"] is True
+    code, out, _ = _invoke("--port", SIM, "--dry-run", "servo", "on")
+    assert code == 0 and "(SIMULATOR)" in out
 
 
 def test_environment_variable_is_a_target(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -220,6 +220,8 @@ class Session:
     def share(self, parent: Session) -> None:
         """Run on ``parent``'s connection (the shell's): same target, same open client, which
         this session never closes; frames it sends are counted here too."""
+        if self.settings.trace:
+            raise click.UsageError("--trace: give it to `robostar shell` itself, for every line")
         if self.settings.port or self.settings.robot:
             raise click.UsageError(
                 f"the shell is connected to {parent.port}; leave it (exit) to change --port/--robot"
@@ -312,7 +314,11 @@ class Session:
         rows = [{"hex": p.frame.hex(" "), "meaning": p.meaning} for p in planned]
         self.out.result(
             {"dry_run": True, "port": self.port_label, "frames": rows, "note": note},
-            lambda: _plan_table(planned, note, self.port_label),
+            lambda: _plan_table(
+                planned,
+                note,
+                f"{self.port_label} (SIMULATOR)" if self.simulator else self.port_label,
+            ),
         )
         raise DryRunDone
 
