@@ -169,3 +169,43 @@ def test_the_trace_shows_what_a_good_command_sends(tmp_path: Path) -> None:
     assert result.exit_code == 0, result.output
     records = [json.loads(line) for line in trace.read_text().splitlines() if line.strip()]
     assert [r["kind"] for r in records if r["direction"] == "tx"][:1] == ["request"]
+
+
+# -- the library: floats and names checked before the first byte ----------------------------
+
+
+@pytest.mark.parametrize("value", [float("nan"), float("inf"), -float("inf"), 1e10, 0.0, -1.0])
+def test_library_timeouts_refuse_non_finite_and_huge(value: float) -> None:
+    from robostar.client import Client
+    from robostar.errors import UsageError
+
+    with pytest.raises(UsageError, match="timeout"):
+        Client(SIM, timeout=value)
+    sent: list[object] = []
+    with Client(SIM, trace=lambda r: sent.append(r) if r.direction == "tx" else None) as client:
+        with pytest.raises(UsageError, match="timeout"):
+            client.home(1, wait=True, timeout=value)
+        with pytest.raises(UsageError, match="timeout"):
+            client.move(1, (1.0, 2.0, 0.0, 0.0), wait=True, timeout=value)
+        with pytest.raises(UsageError, match="timeout"):
+            client.wait_stopped(1, value)
+    assert sent == []
+
+
+@pytest.mark.parametrize("name", ["A B.JOB", "AB\x00.JOB", " AB.JOB", "AB.JOB\n", "A/B.JOB"])
+def test_library_refuses_names_the_wire_would_change(name: str) -> None:
+    from robostar.client import Client
+    from robostar.errors import UsageError
+
+    sent: list[object] = []
+    with Client(SIM, trace=lambda r: sent.append(r) if r.direction == "tx" else None) as client:
+        for call in (
+            lambda: client.delete_file(1, name),
+            lambda: client.download_job(1, name),
+            lambda: client.file_exists(1, name),
+            lambda: client.rename_file(1, "DEMO.JOB", name),
+            lambda: client.upload_job(1, name, ["MAIN", "EOP"]),
+        ):
+            with pytest.raises(UsageError, match="no spaces, no control characters"):
+                call()
+    assert sent == []
