@@ -96,6 +96,12 @@ def test_interactive_shell(
     term.send("move-point DEMO.P\t")
     term.wait_for("move-point DEMO.PNT")
     term.send("\x15")  # Ctrl-U: drop the line
-    term.send("exit\r")
+    term.send("jog\r")  # the jog pad without leaving the shell
+    term.wait_for("robostar jog")
+    term.send("q")
+    term.wait_for("Jog pad closed")
+    answer_cursor_request()
+    term.wait_for("robostar [SIMULATOR] ch1>")
+    term.send("exit\r")  # read by the shell after the pad: it never left
     assert term.wait_exit() == 0
     assert "servo on" in history.read_text()
