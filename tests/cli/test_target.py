@@ -123,3 +123,14 @@ def test_profile_errors_name_the_key(tmp_path: Path, text: str, key: str) -> Non
     _write(tmp_path, text)
     code, _, err = _invoke("--robot", "a", "status")
     assert code == 2 and key in err.replace("\n", "")
+
+
+def test_a_served_simulator_is_named_too(sim_line: object, tmp_path: Path) -> None:
+    url = sim_line.url  # type: ignore[attr-defined]
+    trace = tmp_path / "t.jsonl"
+    code, out, err = _invoke("--port", url, "--trace", str(trace), "estop")
+    assert code == 0 and err.startswith("SIMULATOR | tcp://127.0.0.1:")
+    code, out, _ = _invoke("--port", url, "--json", "reset")
+    assert json.loads(out)["simulator"] is True
+    code, _, err = _invoke("--port", url, "files", "rm", "A B.JOB")
+    assert code == 2 and "Nothing was sent" in err  # the AD that identified it is not counted

@@ -76,6 +76,20 @@ def describe_url(port: str) -> str:
     return port if given is not None else f"{port} (default port {DEFAULT_TCP_PORT})"
 
 
+def _maybe_served_simulator(port: str) -> bool:
+    """A target `robostar sim` may be serving: TCP on this machine, or a pseudo-terminal."""
+    from urllib.parse import urlsplit
+
+    lowered = port.strip().lower()
+    if lowered.startswith("tcp://"):
+        try:
+            host = urlsplit(lowered).hostname or ""
+        except ValueError:
+            return False
+        return host in ("localhost", "::1") or host.startswith("127.")
+    return lowered.startswith(("/dev/pts/", "serial:///dev/pts/"))
+
+
 def is_simulator(port: str) -> bool:
     """True for the built-in simulator's URLs."""
     return port.strip().lower().startswith("sim:")
@@ -97,6 +111,7 @@ class Session:
         self.changes_sent = 0
         self.alarms_left: tuple[Alarm, ...] = ()
         self._shared = False
+        self._served_simulator = False
         self._child: Session | None = None
         self._motion: tuple[str, int] | None = None
         self.stopped_on_interrupt = ""
@@ -129,12 +144,13 @@ class Session:
 
     @property
     def simulator(self) -> bool:
-        return is_simulator(self.port_label)
+        """``sim://``, or a served simulator that said so when asked (AD)."""
+        return self._served_simulator or is_simulator(self.port_label)
 
     def banner(self) -> str:
         """Which controller this run talks to: SIMULATOR when it is one, and the profile."""
         port = self.port_label
-        parts = ["SIMULATOR" if is_simulator(port) else "controller", port]
+        parts = ["SIMULATOR" if self.simulator else "controller", port]
         if self._profile is not None:
             parts.append(f"robot {self._profile.name}")
         return " | ".join(parts)
@@ -201,10 +217,36 @@ class Session:
                 self._trace_file = _open_trace(self.settings.trace)
             options["trace"] = self._on_frame
             shown = self.simulator or self._profile is not None or describe_url(port) != port
-            if not self.settings.json and shown:
-                self.out.note(self.banner(), style="bold magenta" if self.simulator else "dim")
-            self._client = Client(port, **options)
+            if shown:
+                self._banner()
+            client = Client(port, **options)
+            self._client = client
+            if _maybe_served_simulator(port):
+                self._identify(client)
+                if self._served_simulator:
+                    self._banner()
         return self._client
+
+    def _banner(self) -> None:
+        if not self.settings.json:
+            self.out.note(self.banner(), style="bold magenta" if self.simulator else "dim")
+
+    def _identify(self, client: Client) -> None:
+        """Ask a loopback or pseudo-terminal target what it is (AD): `robostar sim` serves
+        there, and a simulator must never pass for a robot. The read is not counted as sent."""
+        from robostar.commands.status import ReadInfo
+        from robostar.errors import RobostarError
+
+        counted = self.frames_sent
+        try:
+            info = client.execute(ReadInfo())
+        except RobostarError:
+            return  # the command itself will meet and report the trouble
+        finally:
+            self.frames_sent = counted
+        if info.name.upper().endswith("-SIM") or info.version.upper().endswith("-SIM"):
+            self._served_simulator = True
+            self.out.extra["simulator"] = True
 
     def read_alarms_left(self) -> None:
         """Read the controller's current alarms (AB) after a refusal into ``alarms_left``;
@@ -232,6 +274,9 @@ class Session:
         self._resolve()
         self._client = parent.client
         self._shared = True
+        self._served_simulator = parent.simulator and not is_simulator(parent.port)
+        if parent.simulator:
+            self.out.extra["simulator"] = True
         parent._child = self
 
     def stop_started_motion(self) -> None:
