@@ -13,7 +13,7 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 demo: $(STAMP)
-	$(BIN)/robostar demo
+	$(BIN)/robostar --port sim:// demo
 
 test: $(STAMP)
 	$(BIN)/python -m pytest

@@ -101,7 +101,8 @@ def test_move_point(on: Run, as_json: AsJson) -> None:
 def test_refused_motion_reads_the_reason_and_exits_3(on: Run) -> None:
     human = on("move", "10", "20", "30", "0")
     assert human.exit_code == 3
-    assert "The controller refused BC" in human.stderr
+    assert "The move was refused by the controller" in human.stderr
+    assert "Protocol: BC" in human.stderr  # the code is in the detail line
     assert "robostar home" in human.stderr
     result = on("--json", "move", "10", "20", "30", "0")
     assert result.exit_code == 3
@@ -144,7 +145,7 @@ def test_job_lifecycle(on: Run, as_json: AsJson) -> None:
 
 def test_io_set(on: Run, as_json: AsJson, sim_line: Any) -> None:
     data = as_json(on("--json", "io", "set", "0", "3", "on"))
-    assert data == {"ok": True, "port": 0, "contact": 3, "on": True}
+    assert data == {"ok": True, "port": 0, "contact": 3, "on": True, "simulator": True}
     assert as_json(on("--json", "io", "out", "0"))["on"] == [3]
     assert "Output 0.3 is off." in on("io", "set", "0", "3", "off").stdout
     sim_line.set_input(0, 15, True)

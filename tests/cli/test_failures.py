@@ -35,10 +35,14 @@ def jog_lost() -> JogInterruptedError:
 CASES: list[tuple[RobostarError, int, str]] = [
     (UsageError("axis: 7 is not 1-6"), EXIT_BAD_ARGUMENT, "Axis: 7 is not 1-6."),
     (FieldError("CB", "speed", "2000 is out of range 0..1000"), EXIT_BAD_ARGUMENT, "speed"),
-    (FunctionFailedError("BC", "servo off"), EXIT_REFUSED, "refused BC: servo off."),
+    (
+        FunctionFailedError("BC", "servo off"),
+        EXIT_REFUSED,
+        "move was refused by the controller: servo off.",
+    ),
     (FunctionFailedError("BC"), EXIT_REFUSED, "it gave no reason"),
     (RejectedError("GA", "port must be 2 digits"), EXIT_REFUSED, "port must be 2 digits"),
-    (NotSupportedError("CX"), EXIT_REFUSED, "does not support CX"),
+    (NotSupportedError("CX"), EXIT_REFUSED, "does not support setting the reference axis"),
     (ReplyTimeoutError("AA", 2.0), EXIT_LINE, "No answer from the controller at PORT"),
     (OutcomeUnknownError("BC"), EXIT_LINE, "outcome is unknown"),
     (NakLimitError("AA", 3), EXIT_LINE, "NAK"),

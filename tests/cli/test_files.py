@@ -101,13 +101,12 @@ def test_backup_and_restore(on: Run, as_json: AsJson, tmp_path: Path, sim_line: 
 
     on("files", "rm", "DEMO.JOB")
     assert "DEMO.JOB" not in names(on, as_json)
-    data = as_json(on("--json", "restore", str(folder)))
-    assert data["verified"] is True
+    data = as_json(on("--json", "restore", str(folder), "--yes"))
+    assert data["written"] is True and data["diff"]["new"] == ["ch1/DEMO.JOB"]
     assert "DEMO.JOB" in names(on, as_json)
-    again = on("restore", str(folder))
-    assert again.exit_code == 0
-    assert "overwritten" in again.stderr
-    assert "Restored and verified" in again.stdout
+    again = on("restore", str(folder))  # nothing differs now: no question, nothing written
+    assert again.exit_code == 0, again.output
+    assert "0 new, 0 changed, 4 unchanged" in again.stdout
 
     second = tmp_path / "second"
     assert as_json(on("--json", "backup", str(second)))["ok"] is True

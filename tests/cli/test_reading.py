@@ -33,9 +33,9 @@ def test_info(run: Run, as_json: AsJson) -> None:
 
 
 def test_alarms_and_history(run: Run, as_json: AsJson) -> None:
-    assert as_json(run("--json", "alarms")) == {"alarms": []}
+    assert as_json(run("--json", "alarms")) == {"alarms": [], "simulator": True}
     assert "No alarms." in run("alarms").stdout
-    assert as_json(run("--json", "alarms", "--history")) == {"history": []}
+    assert as_json(run("--json", "alarms", "--history")) == {"history": [], "simulator": True}
     assert "empty" in run("alarms", "--history").stdout
 
 
@@ -64,7 +64,7 @@ def test_speed_and_job(run: Run, as_json: AsJson) -> None:
     assert speed["percent"] == speed["speed"] / 10
     assert "% of Mv" in run("speed").stdout
     job = as_json(run("--json", "job"))
-    assert job == {"channel": 1, "job": None, "step": 0, "running": False}
+    assert job == {"channel": 1, "job": None, "step": 0, "running": False, "simulator": True}
     assert "(none selected)" in run("job").stdout
 
 
@@ -75,7 +75,11 @@ def test_io_reads(run: Run, as_json: AsJson) -> None:
     outputs = as_json(run("io", "out", "0", "--json"))
     assert outputs["on"] == []
     assert "out 0" in run("io", "out", "0").stdout
-    assert as_json(run("--json", "io", "boards")) == {"input_boards": 1, "output_boards": 1}
+    assert as_json(run("--json", "io", "boards")) == {
+        "input_boards": 1,
+        "output_boards": 1,
+        "simulator": True,
+    }
     assert "1 input, 1 output" in run("io", "boards").stdout
 
 
@@ -84,6 +88,7 @@ def test_globals_read(run: Run, as_json: AsJson) -> None:
         "kind": "int",
         "index": 5,
         "value": 0,
+        "simulator": True,
     }
     assert as_json(run("--json", "global", "get", "float", "499"))["value"] == 0.0
     point = as_json(run("--json", "global", "get", "point", "1023", "--xy"))
@@ -105,7 +110,11 @@ def test_params_and_last_error(run: Run, as_json: AsJson) -> None:
 
 
 def test_ref_axis_read(run: Run, as_json: AsJson) -> None:
-    assert as_json(run("--json", "ref-axis")) == {"channel": 1, "reference_axis": 1}
+    assert as_json(run("--json", "ref-axis")) == {
+        "channel": 1,
+        "reference_axis": 1,
+        "simulator": True,
+    }
     assert "reference axis: 1 (X)" in run("ref-axis").stdout
 
 

@@ -36,7 +36,7 @@ def test_raw_sends_and_decodes(run: Run, as_json: AsJson) -> None:
 def test_raw_refusal_and_unknown_command(run: Run, as_json: AsJson) -> None:
     refused = run("raw", "BC", "0", "0", "0", "     1.000")
     assert refused.exit_code == 3
-    assert "refused BC" in refused.stderr
+    assert "Protocol: BC" in refused.stderr
     assert "may move" in refused.stderr
     unknown = run("--dry-run", "raw", "ZZ", "0x3031")
     assert unknown.exit_code == 0

@@ -73,7 +73,8 @@ CASES: list[tuple[list[str], str]] = [
     (["global", "set", "point", "5", "1", "2", "3", "4", "5", "6", "7"], "value"),
     (["global", "set", "point", "5", "1", "--arm", "up"], "arm"),
     (["ref-axis", "2"], "1|4"),
-    (["files", "ls", "??"], "pattern"),
+    (["files", "ls", "A B"], "pattern"),
+    (["files", "ls", "A*/B"], "pattern"),
     (["files", "get", "TOOLONG.JOB"], "name"),
     (["files", "get", "DEMO.TXT"], "name"),
     (["files", "rm", "Bad.JOB"], "name"),
@@ -100,6 +101,31 @@ CASES: list[tuple[list[str], str]] = [
     (["sim", "--baud", "5"], "baud"),
     (["decode", "--format", "xml"], "format"),
     (["decode", "--hex", "zz"], "hex"),
+    # #11: NaN, the infinities and timeouts the clock cannot wait for, refused before the wire
+    (["--timeout", "nan", "status"], "timeout"),
+    (["--timeout", "inf", "status"], "timeout"),
+    (["--timeout", "1e10", "status"], "timeout"),
+    (["home", "--wait-timeout", "nan"], "wait-timeout"),
+    (["home", "--wait-timeout", "inf"], "wait-timeout"),
+    (["home", "--wait-timeout", "1e10"], "wait-timeout"),
+    (["move", "1", "2", "--wait-timeout", "nan"], "wait-timeout"),
+    (["move", "1", "2", "--wait-timeout", "-inf"], "wait-timeout"),
+    (["move-point", "DEMO.PNT", "1", "--wait-timeout", "nan"], "wait-timeout"),
+    (["jog", "--for", "nan", "--direction", "+"], "for"),
+    (["jog", "--for", "inf", "--direction", "+"], "for"),
+    (["monitor", "--rate", "nan", "--count", "1"], "rate"),
+    (["monitor", "--rate", "inf", "--count", "1"], "rate"),
+    # #11: names the controller cannot hold are refused, never silently changed
+    (["files", "rm", "A B.JOB"], "name"),
+    (["files", "rm", "AB\x00.JOB"], "name"),
+    (["files", "get", " AB.JOB"], "name"),
+    (["files", "cp", "DEMO.JOB", "A B.JOB"], "new_name|new name"),
+    (["files", "mv", "DEMO.JOB", "AB\x00.JOB"], "new_name|new name"),
+    (["files", "put", "--name", "A B.JOB", "pyproject.toml"], "name"),
+    (["job", "select", "A B.JOB"], "name"),
+    (["move-point", "D MO.PNT", "1"], "file"),
+    # #12: --arm with joint angles would be ignored by the controller: refused
+    (["global", "set", "point", "5", "10", "20", "0", "0", "--arm", "left"], "arm"),
 ]
 
 
@@ -112,6 +138,8 @@ def test_bad_cli_argument_exits_2_and_sends_nothing(
     case: tuple[list[str], str], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     argv, name = case
+    if "pyproject.toml" in argv:
+        (tmp_path / "pyproject.toml").write_text("X\n")
     monkeypatch.chdir(tmp_path)
     monkeypatch.delenv("ROBOSTAR_PORT", raising=False)
     trace = tmp_path / "trace.jsonl"
@@ -141,3 +169,43 @@ def test_the_trace_shows_what_a_good_command_sends(tmp_path: Path) -> None:
     assert result.exit_code == 0, result.output
     records = [json.loads(line) for line in trace.read_text().splitlines() if line.strip()]
     assert [r["kind"] for r in records if r["direction"] == "tx"][:1] == ["request"]
+
+
+# -- the library: floats and names checked before the first byte ----------------------------
+
+
+@pytest.mark.parametrize("value", [float("nan"), float("inf"), -float("inf"), 1e10, 0.0, -1.0])
+def test_library_timeouts_refuse_non_finite_and_huge(value: float) -> None:
+    from robostar.client import Client
+    from robostar.errors import UsageError
+
+    with pytest.raises(UsageError, match="timeout"):
+        Client(SIM, timeout=value)
+    sent: list[object] = []
+    with Client(SIM, trace=lambda r: sent.append(r) if r.direction == "tx" else None) as client:
+        with pytest.raises(UsageError, match="timeout"):
+            client.home(1, wait=True, timeout=value)
+        with pytest.raises(UsageError, match="timeout"):
+            client.move(1, (1.0, 2.0, 0.0, 0.0), wait=True, timeout=value)
+        with pytest.raises(UsageError, match="timeout"):
+            client.wait_stopped(1, value)
+    assert sent == []
+
+
+@pytest.mark.parametrize("name", ["A B.JOB", "AB\x00.JOB", " AB.JOB", "AB.JOB\n", "A/B.JOB"])
+def test_library_refuses_names_the_wire_would_change(name: str) -> None:
+    from robostar.client import Client
+    from robostar.errors import UsageError
+
+    sent: list[object] = []
+    with Client(SIM, trace=lambda r: sent.append(r) if r.direction == "tx" else None) as client:
+        for call in (
+            lambda: client.delete_file(1, name),
+            lambda: client.download_job(1, name),
+            lambda: client.file_exists(1, name),
+            lambda: client.rename_file(1, "DEMO.JOB", name),
+            lambda: client.upload_job(1, name, ["MAIN", "EOP"]),
+        ):
+            with pytest.raises(UsageError, match="no spaces, no control characters"):
+                call()
+    assert sent == []

@@ -7,16 +7,25 @@ pattern), so ``robostar decode`` starts without loading the client or the simula
 from __future__ import annotations
 
 import importlib
+import json
 from collections.abc import Sequence
 from typing import Any
 
 import click
 
 from robostar import __version__
-from robostar.cli.failures import EXIT_INTERRUPTED, EXIT_LINE, Failure, explain
+from robostar.cli.failures import (
+    EXIT_BAD_ARGUMENT,
+    EXIT_INTERRUPTED,
+    EXIT_LINE,
+    Failure,
+    explain,
+    with_alarms_left,
+)
+from robostar.cli.options import Finite
 from robostar.cli.render import Output
 from robostar.cli.session import DryRunDone, Session, Settings
-from robostar.errors import RobostarError
+from robostar.errors import ControllerError, RobostarError, UsageError
 
 __all__ = ["SUBCOMMANDS", "RobostarGroup", "cli", "main"]
 
@@ -55,6 +64,9 @@ SUBCOMMANDS: dict[str, str] = {
     "sim": "robostar.cli.simcmd:sim",
     "sim-input": "robostar.cli.simcmd:sim_input",
     "demo": "robostar.cli.demo:demo",
+    "profiles": "robostar.cli.profilecmd:profiles",
+    "teach": "robostar.cli.teach:teach",
+    "shell": "robostar.cli.shell:shell",
 }
 
 
@@ -74,27 +86,66 @@ class RobostarGroup(click.Group):
             raise TypeError(f"{target} is not a click command")
         return command
 
+    def make_context(
+        self,
+        info_name: str | None,
+        args: list[str],
+        parent: click.Context | None = None,
+        **extra: Any,
+    ) -> click.Context:
+        json_mode = "--json" in args  # before parsing, which consumes ``args``
+        try:
+            return super().make_context(info_name, args, parent, **extra)
+        except click.UsageError as error:
+            # The root's own options failed to parse: no session yet, so look for --json here.
+            if json_mode:
+                _json_usage_error(error)
+                raise click.exceptions.Exit(EXIT_BAD_ARGUMENT) from error
+            raise
+
     def invoke(self, ctx: click.Context) -> Any:
         try:
             try:
                 return super().invoke(ctx)
+            except ControllerError:
+                # Read before the connection closes: did the refusal leave an alarm?
+                session = ctx.find_object(Session)
+                if session is not None:
+                    session.read_alarms_left()
+                raise
+            except KeyboardInterrupt:
+                session = ctx.find_object(Session)
+                if session is not None:
+                    session.stop_started_motion()
+                raise
             finally:
                 session = ctx.find_object(Session)
                 if session is not None:
                     session.close()
         except DryRunDone:
             ctx.exit(0)
+        except click.UsageError as error:
+            session = ctx.find_object(Session)
+            if session is None or not session.out.json:
+                raise
+            _json_usage_error(error, session.frames_sent, session.changes_sent)
+            ctx.exit(EXIT_BAD_ARGUMENT)
         except RobostarError as error:
             session = ctx.find_object(Session)
-            port = session.settings.port if session else "?"
+            port = session.port_label if session else "?"
             out = session.out if session else Output(False)
-            failure = explain(error, port)
+            sent = (session.frames_sent, session.changes_sent) if session else (0, 0)
+            failure = explain(error, port, *sent)
+            if isinstance(error, ControllerError) and session is not None:
+                failure = with_alarms_left(failure, session.alarms_left)
             out.failure(failure)
             ctx.exit(failure.exit_code)
         except KeyboardInterrupt:
             session = ctx.find_object(Session)
             out = session.out if session else Output(False)
-            out.failure(Failure(EXIT_INTERRUPTED, "Interrupted.", "", "KeyboardInterrupt"))
+            stopped = session.stopped_on_interrupt if session else ""
+            text = f"Interrupted; {stopped}." if stopped else "Interrupted."
+            out.failure(Failure(EXIT_INTERRUPTED, text, "", "KeyboardInterrupt"))
             ctx.exit(EXIT_INTERRUPTED)
         except OSError as error:
             # A port that fails mid-run without the client wrapping it: still a line failure.
@@ -106,20 +157,37 @@ class RobostarGroup(click.Group):
             ctx.exit(EXIT_LINE)
 
 
+def _json_usage_error(error: click.UsageError, frames_sent: int = 0, changes_sent: int = 0) -> None:
+    """A usage error as the JSON error object every --json failure prints (on stderr)."""
+    command = error.ctx.command_path if error.ctx is not None else None
+    usage = explain(UsageError(error.format_message()), "", frames_sent, changes_sent)
+    failure = Failure(EXIT_BAD_ARGUMENT, usage.message, usage.hint, "UsageError", command)
+    click.echo(json.dumps(failure.as_json(), ensure_ascii=False), err=True)
+
+
 @click.group(cls=RobostarGroup, context_settings={"help_option_names": ["-h", "--help"]})
 @click.option(
     "--port",
     "-p",
     envvar="ROBOSTAR_PORT",
-    default="sim://",
-    show_default=True,
+    default=None,
     metavar="URL",
     help="The controller: /dev/ttyUSB0, serial://PATH?baudrate=N, tcp://HOST:PORT, or sim:// "
-    "(the built-in simulator). Also from ROBOSTAR_PORT.",
+    "(the built-in simulator). Also from ROBOSTAR_PORT. Required (or --robot) for every "
+    "command that talks to a controller.",
+)
+@click.option(
+    "--robot",
+    "-r",
+    envvar="ROBOSTAR_ROBOT",
+    default=None,
+    metavar="NAME",
+    help="A named controller from the profile file (see `robostar profiles`); --port overrides "
+    "its port. Also from ROBOSTAR_ROBOT.",
 )
 @click.option(
     "--timeout",
-    type=click.FloatRange(min=0.01),
+    type=Finite(min=0.01, max=3600.0),
     default=None,
     metavar="SECONDS",
     help="Reply timeout (default 2 s, as the manual says).",
@@ -149,7 +217,8 @@ class RobostarGroup(click.Group):
 @click.pass_context
 def cli(
     ctx: click.Context,
-    port: str,
+    port: str | None,
+    robot: str | None,
     timeout: float | None,
     json_mode: bool,
     trace: str | None,
@@ -158,18 +227,24 @@ def cli(
 ) -> None:
     """robostar: the technician's console for a Robostar N1 controller.
 
-    Every command talks to the controller at --port; with no port it starts the built-in
-    simulator, so you can try everything safely. Exit codes: 0 done, 2 bad argument,
-    3 refused by the controller (with its reason), 4 the line failed.
+    Every command that talks to a controller needs a target: --port (or ROBOSTAR_PORT) or a
+    profile with --robot NAME; nothing picks one for you. --port sim:// is the built-in
+    simulator, safe to try everything on. Exit codes: 0 done, 2 bad argument,
+    3 refused by the controller (with its reason), 4 the line failed, 130 interrupted.
 
     \b
     Examples:
-      robostar demo                               # a guided tour on the simulator
+      robostar --port sim:// demo                  # a guided tour on the simulator
       robostar --port /dev/ttyUSB0 status
+      robostar --robot cell1 status                # a profile from `robostar profiles`
       robostar --port tcp://127.0.0.1:9100 --json position --kind xy
       robostar --dry-run move 100 200 0 0          # show the frames, send nothing
     """
-    ctx.obj = Session(Settings(port, timeout, json_mode, trace, channel, dry_run))
+    session = Session(Settings(port, timeout, json_mode, trace, channel, dry_run, robot))
+    if isinstance(ctx.obj, Session):
+        # A line typed in `robostar shell`: it runs on the shell's open connection.
+        session.share(ctx.obj)
+    ctx.obj = session
 
 
 def main(argv: Sequence[str] | None = None) -> None:

@@ -17,7 +17,7 @@ from rich.rule import Rule
 from rich.text import Text
 
 from robostar.cli.inout import port_json
-from robostar.cli.options import common_options
+from robostar.cli.options import Finite, common_options
 from robostar.cli.reading import (
     alarm_table,
     info_view,
@@ -265,14 +265,14 @@ def run_tour(tour: _Tour, jog_seconds: float) -> None:
 @click.command()
 @click.option(
     "--speedup",
-    type=click.FloatRange(1.0, 200.0),
+    type=Finite(1.0, 200.0),
     default=4.0,
     show_default=True,
     help="How much faster than real time the simulated robot moves.",
 )
 @click.option(
     "--pause",
-    type=click.FloatRange(0.0, 10.0),
+    type=Finite(0.0, 10.0),
     default=0.8,
     show_default=True,
     metavar="SECONDS",
@@ -288,8 +288,8 @@ def demo(session: Session, speedup: float, pause: float, fast: bool) -> None:
 
     \b
     Example:
-      robostar demo
-      robostar demo --fast
+      robostar --port sim:// demo
+      robostar --port sim:// demo --fast
     """
     from robostar.client import Client
     from robostar.sim import SimConfig, VirtualController
@@ -298,15 +298,17 @@ def demo(session: Session, speedup: float, pause: float, fast: bool) -> None:
     if fast:
         speedup, pause = max(speedup, 50.0), 0.0
     out = session.out
-    if session.settings.port != "sim://":
-        out.note(f"The demo runs on its own simulator; {session.settings.port} is not touched.")
+    out.extra["simulator"] = True
+    port = session.settings.port
+    if port is not None and port != "sim://":
+        out.note(f"The demo runs on its own simulator; {port} is not touched.")
     controller = VirtualController(SimConfig(speedup=speedup))
     started = time.monotonic()
     with Client(PeerTransport(controller), trace=session.settings.trace) as client:
         tour = _Tour(client, controller, session, pause)
         if not out.json:
             out.console.print(
-                Text("robostar demo: a tour of the console on a simulated N1", "bold")
+                Text("robostar demo: a tour of the console on a simulated N1 (SIMULATOR)", "bold")
             )
         run_tour(tour, 2.0 / speedup)
     took = time.monotonic() - started

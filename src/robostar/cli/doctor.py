@@ -53,6 +53,20 @@ def _view(port: str, checks: list[Check]) -> RenderableType:
     return Group(*lines)
 
 
+def serial_ports() -> Check:
+    """The serial ports this machine has (pyserial's list_ports), so a --port can be chosen."""
+    from serial.tools import list_ports
+
+    found = sorted(list_ports.comports(), key=lambda p: p.device)
+    if not found:
+        return Check("serial ports", None, "none found on this machine")
+    names = "; ".join(
+        f"{p.device} ({p.description})" if p.description and p.description != "n/a" else p.device
+        for p in found
+    )
+    return Check("serial ports", True, names)
+
+
 def _probe(port: str, timeout: float) -> tuple[Check, int | None]:
     """Which baud rate answers (serial ports only)."""
     from robostar.client import probe
@@ -73,9 +87,9 @@ def _probe(port: str, timeout: float) -> tuple[Check, int | None]:
             ),
             None,
         )
-    return Check("baud rate", True, f"the controller answers at {result.baudrate} baud"), (
-        result.baudrate
-    )
+    tried = ", ".join(str(a.baudrate) for a in result.attempts)
+    detail = f"the controller answers at {result.baudrate} baud (tried {tried})"
+    return Check("baud rate", True, detail), result.baudrate
 
 
 def _round_trips(session: Session, count: int) -> Check:
@@ -110,9 +124,15 @@ def doctor(session: Session, count: int) -> None:
       robostar --port /dev/ttyUSB0 doctor
       robostar --port tcp://192.0.2.10:20000 --json doctor
     """
-    port = session.settings.port
+    ports = serial_ports()
+    if session.port_label == "(no port)":
+        session.out.result(
+            {"port": None, "ok": False, "serial_ports": ports.detail},
+            Text(f"Serial ports here: {ports.detail}."),
+        )
+    port = session.port
     timeout = session.settings.timeout or 0.5
-    checks: list[Check] = [Check("robostar", None, f"version {robostar.__version__}")]
+    checks: list[Check] = [Check("robostar", None, f"version {robostar.__version__}"), ports]
     if session.dry_run:
         session.plan([ReadStatus(), ReadInfo()], note="Plus AA at each baud rate on a serial line.")
     failed: RobostarError | None = None
@@ -153,6 +173,7 @@ def doctor(session: Session, count: int) -> None:
             {"name": c.name, "ok": c.ok, "detail": c.detail, "hint": c.hint or None} for c in checks
         ],
     }
+    data["tried"] = [c.name for c in checks if c.ok is not None]
     session.out.result(data, lambda: _view(port, checks))
     if failed is not None:
         raise click.exceptions.Exit(explain(failed, port).exit_code or EXIT_LINE)

@@ -12,7 +12,9 @@ Exit codes (documented in docs/cli.md):
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import re
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
 
 from robostar.errors import (
     ControllerError,
@@ -31,6 +33,7 @@ from robostar.errors import (
     UploadIncompleteError,
     UsageError,
 )
+from robostar.types import Alarm
 
 __all__ = [
     "EXIT_BAD_ARGUMENT",
@@ -40,6 +43,8 @@ __all__ = [
     "EXIT_REFUSED",
     "Failure",
     "explain",
+    "next_step",
+    "with_alarms_left",
 ]
 
 EXIT_OK = 0
@@ -64,6 +69,10 @@ class Failure:
     kind: str
     command: str | None = None
     reason: str | None = None
+    detail: str = ""
+    """Protocol codes and the raw reason: shown below the sentence, never as the headline."""
+    alarms: tuple[str, ...] = ()
+    """Alarms a refused command left on the controller (Run Fail), read with AB after it."""
 
     def as_json(self) -> dict[str, object]:
         return {
@@ -74,6 +83,8 @@ class Failure:
                 "hint": self.hint,
                 "command": self.command,
                 "reason": self.reason,
+                "detail": self.detail or None,
+                "alarms_left": list(self.alarms),
             }
         }
 
@@ -89,11 +100,16 @@ def _sentence(text: str) -> str:
     return text if text.endswith((".", "!", "?")) else text + "."
 
 
-def explain(error: RobostarError, port: str) -> Failure:
-    """The console's reading of ``error``; ``port`` is the URL the command used."""
+def explain(
+    error: RobostarError, port: str, frames_sent: int = 0, changes_sent: int = 0
+) -> Failure:
+    """The console's reading of ``error``; ``port`` is the URL the command used,
+    ``frames_sent`` how many frames the run had already written and ``changes_sent`` how many
+    of its requests change the controller (so no message claims that nothing was sent when
+    something was)."""
     kind = type(error).__name__
     if isinstance(error, UsageError):
-        return _usage(error, kind)
+        return _usage(error, kind, frames_sent, changes_sent)
     if isinstance(error, ControllerError):
         return _refusal(error, kind)
     if isinstance(error, LineError | ProtocolError):
@@ -119,42 +135,146 @@ def _client_logic(error: RobostarError, kind: str, port: str) -> Failure:
         if isinstance(cause, RobostarError):
             inner = explain(cause, port)
             text = f"The jog stopped: {inner.message[0].lower()}{inner.message[1:]}"
-            return Failure(inner.exit_code, text, inner.hint, kind, inner.command, inner.reason)
+            return Failure(
+                inner.exit_code, text, inner.hint, kind, inner.command, inner.reason, inner.detail
+            )
         return Failure(EXIT_LINE, message, "Run `robostar doctor` to check the line.", kind)
     return Failure(EXIT_REFUSED, message, _STATE_HINT, kind)
 
 
-def _usage(error: UsageError, kind: str) -> Failure:
+def _usage(error: UsageError, kind: str, frames_sent: int, changes_sent: int) -> Failure:
     if isinstance(error, FieldError):
         message = _sentence(f"The {error.field} is not valid: {error.message}")
     else:
         message = _sentence(str(error))
+    if changes_sent:
+        sent = (
+            f"{changes_sent} command(s) that change the controller had already been sent "
+            "before this check: see `robostar status`."
+        )
+    elif frames_sent:
+        sent = "Only reads were sent before this check; nothing on the controller changed."
+    else:
+        sent = "Nothing was sent."
     return Failure(
         EXIT_BAD_ARGUMENT,
         message,
-        "Nothing was sent. Run the command with --help to see what it takes.",
+        f"{sent} Run the command with --help to see what it takes.",
         kind,
     )
 
 
+_ACTIONS = {
+    "BA": "homing",
+    "BB": "the move to a point",
+    "BC": "the move",
+    "BD": "the relative move",
+    "BE": "the jog",
+    "BF": "the jog",
+    "BG": "stopping the jog",
+    "CB": "setting the speed",
+    "CC": "starting the job",
+    "CD": "stopping the job",
+    "CE": "resetting the job",
+    "CF": "the emergency stop",
+    "CG": "resetting the alarms",
+    "CI": "stopping the homing",
+    "CJ": "the restart",
+    "CX": "setting the reference axis",
+    "DB": "switching the servo",
+    "DC": "selecting the job",
+    "EA": "setting the job mode",
+    "FA": "the download",
+    "FB": "the upload",
+    "FC": "looking up the file",
+    "FD": "listing the files",
+    "FE": "deleting the file",
+    "FF": "copying the file",
+    "FG": "renaming the file",
+    "GC": "setting the output",
+    "GR": "reading the global variable",
+    "GW": "writing the global variable",
+}
+
+_CHANNEL = re.compile(r"channel (\d)")
+
+# (words in the controller's reason, the next step); {c} is the channel option, "" for 1.
+_NEXT_STEPS: tuple[tuple[tuple[str, ...], str], ...] = (
+    (("servo is on",), "servo is on: `robostar servo off{c}` first"),
+    (("servo is off", "servo must be on", "servo off"), "servo is off: `robostar servo on{c}`"),
+    (
+        ("origin return", "not homed", "homing is not done", "home first"),
+        "the channel is not homed: `robostar home{c}`",
+    ),
+    (("has an alarm", "alarm came up"), "see `robostar alarms`, then clear with `robostar reset`"),
+    (("no job selected",), "select a job: `robostar job select NAME{c}`"),
+    (("running job", "busy", "run bit is on"), "stop it first: `robostar job stop{c}`"),
+    (("speed is 0",), "set a speed: `robostar speed set 100{c}`"),
+    (("no file", "already exists"), "see the files: `robostar files ls{c}`"),
+    (("soft limit",), "the target is outside the soft limits: check it with `robostar position`"),
+    (("no robot", "not configured"), "this channel has no robot: see `robostar info`"),
+    (("no jog in progress",), "start the jog again: `robostar jog{c}`"),
+)
+
+
+RUN_FAIL = 9002
+
+
+def with_alarms_left(failure: Failure, alarms: Sequence[Alarm]) -> Failure:
+    """``failure`` saying which Run Fail alarm the refused command left, and how to clear it."""
+    left = [a for a in alarms if a.code == RUN_FAIL or "run fail" in a.text.lower()]
+    if not left:
+        return failure
+    names = ", ".join(str(a) for a in left)
+    hint = (
+        f"{failure.hint} The refusal left an alarm on the controller ({names}): "
+        "clear it with `robostar reset` once the cause is fixed."
+    )
+    return replace(failure, hint=hint.strip(), alarms=tuple(str(a) for a in left))
+
+
+def next_step(reason: str | None) -> str | None:
+    """The specific next step for a controller's reason, when one is known."""
+    if not reason:
+        return None
+    text = reason.lower()
+    found = _CHANNEL.search(text)
+    channel = f" -c {found.group(1)}" if found and found.group(1) != "1" else ""
+    for words, step in _NEXT_STEPS:
+        if any(w in text for w in words):
+            return step.format(c=channel)
+    return None
+
+
 def _refusal(error: ControllerError, kind: str) -> Failure:
     code, reason = error.command, error.reason
+    action = _ACTIONS.get(code, f"the {code} command")
+    action = action[0].upper() + action[1:]
+    detail = f"Protocol: {code}, answer flag 0x{error.flag:02X}"
+    if reason:
+        detail += f"; KD reason: {reason}"
     if isinstance(error, FunctionFailedError):
         why = f": {reason}" if reason else " (it gave no reason)"
-        message = f"The controller refused {code}{why}."
-        hint = _STATE_HINT
+        message = _sentence(f"{action} was refused by the controller{why}")
+        step = next_step(reason)
+        if step:
+            hint = f"Next: {step}."
+        elif code[:1] in "BCDE":
+            hint = _STATE_HINT
+        else:
+            hint = "`robostar last-error` shows the controller's last reason in full."
     elif isinstance(error, RejectedError):
-        message = f"The controller did not understand the {code} packet (flag 0x31)."
+        message = f"{action} was not understood by the controller (a field it cannot take)."
         if reason:
             message += f" Its reason: {reason}."
         hint = "Check the arguments; `robostar last-error` shows the controller's last reason."
     elif isinstance(error, NotSupportedError):
-        message = f"This controller does not support {code} (flag 0x33)."
+        message = f"This controller does not support {action.lower()}."
         hint = "Check its model and version with `robostar info`."
     else:
         message = _sentence(str(error))
         hint = _STATE_HINT
-    return Failure(EXIT_REFUSED, message, hint, kind, code, reason)
+    return Failure(EXIT_REFUSED, message, hint, kind, code, reason, detail)
 
 
 def _line(error: RobostarError, kind: str, port: str) -> Failure:

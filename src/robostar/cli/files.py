@@ -6,6 +6,11 @@ On disk a JOB file is its steps, one per line (MAIN to EOP); a PNT file is FA's 
 
 from __future__ import annotations
 
+import contextlib
+import fnmatch
+import os
+import re
+import tempfile
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -21,6 +26,8 @@ from robostar.cli.control import done
 from robostar.cli.options import common_options
 from robostar.cli.render import jsonable
 from robostar.cli.session import PlannedFrame, Session, pass_session
+from robostar.client.backup import RestoreDiff
+from robostar.client.files import parse_name
 from robostar.commands import Command
 from robostar.commands.files import (
     CopyFile,
@@ -32,20 +39,37 @@ from robostar.commands.files import (
     format_point_line,
     parse_point_line,
 )
+from robostar.commands.status import ReadInfo
 from robostar.errors import FieldError, UsageError
 from robostar.protocol.fields import FileName
 from robostar.protocol.frame import encode_packet
 from robostar.types import CoordSystem, JobFile, Point, PointFile
 
-__all__ = ["backup", "file_lines", "files", "read_local", "restore"]
+__all__ = ["backup", "file_lines", "files", "read_local", "restore", "write_atomic"]
 
 
 def _name(text: str, what: str = "name") -> FileName:
-    name = FileName.parse(text)
+    name = parse_name(text, what)
     try:
         return name.check("", what)
     except FieldError as error:
         raise UsageError(f"{what} {text!r}: {error.message}") from None
+
+
+def write_atomic(target: Path, data: bytes) -> None:
+    """Write ``data`` to a temporary file beside ``target`` and rename it into place only when
+    complete: an interrupted or failed write never leaves a partial or empty ``target``."""
+    fd, temporary = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".part", dir=target.parent)
+    try:
+        with os.fdopen(fd, "wb") as stream:
+            stream.write(data)
+            stream.flush()
+            os.fsync(stream.fileno())
+        os.replace(temporary, target)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(temporary)
+        raise
 
 
 def file_lines(content: JobFile | PointFile) -> list[str]:
@@ -53,6 +77,13 @@ def file_lines(content: JobFile | PointFile) -> list[str]:
     if isinstance(content, JobFile):
         return list(content.lines)
     return [format_point_line(n, content.points[n]) for n in sorted(content.points)]
+
+
+XY_HEADER = "#COORDS XY"
+"""First line of a point file saved with --xy: its coordinates are XY, not joint angles."""
+
+
+_GLOB = re.compile(r"[A-Za-z0-9_.*?\[\]!-]+")
 
 
 def read_local(path: Path, name: FileName) -> list[str]:
@@ -64,6 +95,12 @@ def read_local(path: Path, name: FileName) -> list[str]:
     except OSError as error:
         raise UsageError(f"cannot read {path}: {error.strerror or error}") from None
     lines = [line.rstrip("\r") for line in text.splitlines()]
+    if name.is_points and lines and lines[0].strip().upper() == XY_HEADER:
+        raise UsageError(
+            f"{path} holds points in XY (saved with --xy), but the controller's point files hold "
+            "joint angles: uploading it would write millimetres as degrees. Download it again "
+            "without --xy to upload it"
+        )
     if name.is_points:
         lines = [line for line in lines if line.strip()]
         for number, line in enumerate(lines, 1):
@@ -119,12 +156,26 @@ def files() -> None:
 def files_ls(session: Session, pattern: str) -> None:
     """List the channel's JOB and PNT files (FD): number, name, size, steps.
 
+    PATTERN is a file name or a glob (*, ?, [...]), matched without regard to case; the
+    controller's FD takes only * or one name, so a glob lists * and filters here.
+
     \b
     Example:
       robostar files ls
+      robostar files ls '*.PNT'
       robostar --channel 2 files ls DEMO.JOB
     """
-    records = session.send(ListFiles(session.channel, pattern))
+    if pattern == "*":
+        records = session.send(ListFiles(session.channel, "*"))
+    elif set(pattern) & set("*?["):
+        if not _GLOB.fullmatch(pattern):
+            raise UsageError(
+                f"pattern {pattern!r}: a glob of letters, digits, _, ., *, ? and [...] only"
+            )
+        listed = session.send(ListFiles(session.channel, "*"))
+        records = tuple(r for r in listed if fnmatch.fnmatchcase(r.name.upper(), pattern.upper()))
+    else:
+        records = session.send(ListFiles(session.channel, str(_name(pattern, "pattern"))))
 
     def view() -> RenderableType:
         if not records:
@@ -172,6 +223,9 @@ def files_get(session: Session, name: str, dest: str | None, xy: bool, force: bo
                 session.channel, file, coords="xy" if xy else "angle", progress=progress
             )
     lines = file_lines(content)
+    if xy and file.is_points and dest != "-":
+        # The kind travels with the file: `files put` refuses it rather than write mm as degrees.
+        lines = [XY_HEADER, *lines]
     text = "".join(line + "\n" for line in lines)
     if dest == "-":
         if session.out.json:
@@ -179,7 +233,10 @@ def files_get(session: Session, name: str, dest: str | None, xy: bool, force: bo
         else:
             click.echo(text, nl=False)
         return
-    target.write_text(text, encoding="ascii")
+    try:
+        write_atomic(target, text.encode("ascii"))
+    except OSError as error:
+        raise UsageError(f"dest: cannot write {str(target)!r}: {error}") from error
     done(
         session,
         f"Saved {file} ({len(lines)} lines) to {target}.",
@@ -311,49 +368,175 @@ def _manifest_view(title: str, manifest: Any, folder: str) -> RenderableType:
 
 @click.command()
 @click.argument("folder", type=click.Path(file_okay=False))
+@click.option(
+    "--keep",
+    type=click.IntRange(min=1),
+    default=None,
+    metavar="N",
+    help="FOLDER holds timestamped generations (backup-<UTC time>); keep the newest N.",
+)
 @common_options()
 @pass_session
-def backup(session: Session, folder: str) -> None:
+def backup(session: Session, folder: str, keep: int | None) -> None:
     """Save every JOB and PNT file of every channel to FOLDER, with a manifest (sha256).
+
+    The backup is written to a temporary folder and swapped into place only when complete:
+    an interrupted backup leaves the previous one intact. A non-empty FOLDER that is not a
+    robostar backup is refused.
 
     \b
     Example:
-      robostar backup backups/line3-2024-05-01
+      robostar --port /dev/ttyUSB0 backup backups/line3
+      robostar --robot cell1 backup backups/cell1 --keep 5
     """
     if session.dry_run:
         session.plan([ListFiles(1, "*")], note="Then FA for every file listed, on every channel.")
     with _progress(session, "backup") as progress:
-        manifest = session.client.backup(folder, progress=progress)
+        manifest = session.client.backup(folder, progress=progress, keep=keep)
     session.out.result(
-        {"ok": True, "folder": folder, "manifest": jsonable(manifest)},
+        {"ok": True, "folder": folder, "keep": keep, "manifest": jsonable(manifest)},
         lambda: _manifest_view("Backup", manifest, folder),
     )
 
 
 @click.command()
 @click.argument("folder", type=click.Path(exists=True, file_okay=False))
+@click.option(
+    "--dry-run",
+    "preview",
+    is_flag=True,
+    help="Read the backup and the controller and print what would change; write nothing.",
+)
+@click.option(
+    "--channel",
+    "-c",
+    "channels",
+    type=click.IntRange(1, 3),
+    multiple=True,
+    help="Restore only this channel (repeatable); default all.",
+)
+@click.option("--only", metavar="PATTERN", help="Restore only files matching PATTERN (*.PNT).")
+@click.option("--yes", "-y", is_flag=True, help="Do not ask for confirmation.")
+@click.option(
+    "--delete-extra",
+    is_flag=True,
+    help="Also delete JOB files on the controller that the backup does not hold.",
+)
+@click.option(
+    "--ignore-identity",
+    is_flag=True,
+    help="Restore even if the controller's version, robot type or axes differ from the backup's.",
+)
 @common_options()
 @pass_session
-def restore(session: Session, folder: str) -> None:
-    """Upload every file of a backup in FOLDER, then read each back and compare.
+def restore(
+    session: Session,
+    folder: str,
+    preview: bool,
+    channels: tuple[int, ...],
+    only: str | None,
+    yes: bool,
+    delete_extra: bool,
+    ignore_identity: bool,
+) -> None:
+    """Restore a backup in FOLDER: a preflight, a confirmation, then only what changed.
 
-    Files on the controller with the same names are overwritten.
+    The preflight validates the whole manifest, reads every file of the backup, and reads
+    the controller (identity: version, robot type, axes; its files and their contents). If any
+    check fails nothing is written. It then shows the diff (new, changed, unchanged, not in
+    the backup) and asks before writing (--yes skips the question). Each file written is read
+    back and compared.
 
     \b
     Example:
-      robostar restore backups/line3-2024-05-01
+      robostar --port sim:// restore backups/line3 --dry-run
+      robostar --robot cell1 restore backups/cell1 --channel 1 --only '*.PNT' --yes
     """
     if session.dry_run:
         session.plan(
-            [ListFiles(1, "*")],
-            note="Then FB for every file of the manifest, and FA to read each back.",
+            [ReadInfo(), ListFiles(1, "*")],
+            note="Then FA of each file on both sides, FB of what changed, FA to read each back.",
         )
-    session.announce(
-        f"Restoring {folder}: files of the same names on the controller are overwritten."
-    )
+    if session.out.json and not (yes or preview):
+        raise UsageError("--yes: a --json restore cannot ask; give --yes or --dry-run")
+    seen: list[tuple[RestoreDiff, bool]] = []
+
+    def confirm(diff: RestoreDiff) -> bool:
+        if preview:
+            seen.append((diff, False))
+            return False
+        if not session.out.json:
+            session.out.console.print(_diff_view(diff, folder))
+        agreed = diff.writes == 0 or yes
+        if not agreed:
+            agreed = click.confirm(f"Write {diff.writes} file change(s) to {session.port}?")
+        seen.append((diff, agreed))
+        return agreed
+
     with _progress(session, "restore") as progress:
-        manifest = session.client.restore(folder, progress=progress)
-    session.out.result(
-        {"ok": True, "folder": folder, "verified": True, "manifest": jsonable(manifest)},
-        lambda: _manifest_view("Restored and verified", manifest, folder),
+        manifest = session.client.restore(
+            folder,
+            progress=progress,
+            channels=channels or None,
+            only=only,
+            dry_run=preview,
+            confirm=confirm,
+            delete_extra=delete_extra,
+            ignore_identity=ignore_identity,
+        )
+    diff, agreed = seen[-1]
+    written = agreed and diff.writes > 0
+    data = {
+        "ok": True,
+        "folder": folder,
+        "dry_run": preview,
+        "written": written,
+        "diff": _diff_json(diff),
+        "manifest": jsonable(manifest),
+    }
+    if preview:
+        session.out.result(data, lambda: _diff_view(diff, folder))
+    elif not agreed:
+        session.out.result(data, Text("Nothing was written.", style="yellow"))
+        raise click.exceptions.Exit(1)
+    else:
+        session.out.result(
+            data, Text(f"Restored {diff.writes} file change(s) and verified them.", style="green")
+        )
+
+
+def _diff_json(diff: RestoreDiff) -> dict[str, object]:
+    return {
+        "new": list(diff.new),
+        "changed": list(diff.changed),
+        "unchanged": list(diff.unchanged),
+        "not_in_backup": list(diff.extra),
+        "would_be_deleted": list(diff.delete),
+        "identity_differences": list(diff.identity),
+    }
+
+
+def _diff_view(diff: RestoreDiff, folder: str) -> RenderableType:
+    table = Table(title=f"Restore of {folder}: what changes", title_justify="left")
+    table.add_column("file")
+    table.add_column("on the controller")
+    rows = [
+        *((f, Text("new: will be written", "green")) for f in diff.new),
+        *((f, Text("changed: will be overwritten", "yellow")) for f in diff.changed),
+        *((f, Text("unchanged: left alone", "dim")) for f in diff.unchanged),
+        *((f, Text("would be deleted", "bold red")) for f in diff.delete),
+        *((f, Text("not in the backup: kept", "dim")) for f in diff.extra if f not in diff.delete),
+    ]
+    for name, state in rows:
+        table.add_row(name, state)
+    parts: list[RenderableType] = [table]
+    for problem in diff.identity:
+        parts.append(Text(f"identity differs (--ignore-identity): {problem}", "yellow"))
+    parts.append(
+        Text(
+            f"{len(diff.new)} new, {len(diff.changed)} changed, {len(diff.unchanged)} unchanged, "
+            f"{len(diff.delete)} to delete, {len(diff.extra) - len(diff.delete)} kept",
+            style="bold",
+        )
     )
+    return Group(*parts)

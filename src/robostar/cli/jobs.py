@@ -6,7 +6,7 @@ import click
 from rich.text import Text
 
 from robostar.cli.control import done
-from robostar.cli.options import common_options, get_session
+from robostar.cli.options import ControllerFile, common_options, get_session
 from robostar.cli.session import Session, pass_session
 from robostar.commands.control import ResetJob, StartJob, StopJob
 from robostar.commands.job import ReadJobName, ReadJobStep, SelectJob, SetJobMode
@@ -45,7 +45,7 @@ def job(ctx: click.Context) -> None:
 
 
 @job.command()
-@click.argument("name")
+@click.argument("name", type=ControllerFile("JOB"))
 @common_options(channel=True)
 @pass_session
 def select(session: Session, name: str) -> None:

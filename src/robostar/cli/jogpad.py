@@ -21,17 +21,47 @@ from rich.table import Table
 from rich.text import Text
 
 from robostar.cli.keys import KeyReader, TerminalLost
-from robostar.cli.options import common_options
+from robostar.cli.options import ControllerFile, Finite, common_options
 from robostar.cli.reading import position_json, position_view
 from robostar.cli.render import format_number, status_lamps
 from robostar.cli.session import Session, pass_session
+from robostar.cli.teach import (
+    GOTO_SPEED,
+    Target,
+    current_point,
+    goto,
+    point_text,
+    read_point,
+    write_point,
+)
 from robostar.commands.control import ReadSpeed, SetSpeed
 from robostar.commands.motion import JogContinue, JogStart, JogStop
 from robostar.commands.status import ReadInfo, ReadPosition, ReadStatus
 from robostar.errors import ControllerError, LineError, RobostarError, UsageError
-from robostar.types import ChannelStatus, JogDirection, MotionType, Position, PositionKind
+from robostar.types import (
+    ChannelStatus,
+    JogDirection,
+    MotionType,
+    Point,
+    Position,
+    PositionKind,
+    RobotType,
+)
 
-__all__ = ["ChangeSpeed", "JogPad", "Quit", "StartJog", "StopJog", "ToggleMotion", "jog"]
+__all__ = [
+    "AskGoto",
+    "AskTeach",
+    "Cancel",
+    "ChangeSpeed",
+    "Goto",
+    "JogPad",
+    "Quit",
+    "StartJog",
+    "StopJog",
+    "Teach",
+    "ToggleMotion",
+    "jog",
+]
 
 SPEED_STEP = 50
 REPEAT_HOLD = 0.2
@@ -70,7 +100,47 @@ class Quit:
     pass
 
 
-Action = StartJog | StopJog | ChangeSpeed | ToggleMotion | Quit
+@dataclass(frozen=True, slots=True)
+class AskTeach:
+    """Show the old and new value of ``point`` and ask before storing the position there."""
+
+    point: int
+
+
+@dataclass(frozen=True, slots=True)
+class Teach:
+    point: int
+
+
+@dataclass(frozen=True, slots=True)
+class AskGoto:
+    """Show ``point`` and ask before moving there at low speed."""
+
+    point: int
+
+
+@dataclass(frozen=True, slots=True)
+class Goto:
+    point: int
+
+
+@dataclass(frozen=True, slots=True)
+class Cancel:
+    """A typed point number or a question was abandoned."""
+
+
+Action = (
+    StartJog
+    | StopJog
+    | ChangeSpeed
+    | ToggleMotion
+    | Quit
+    | AskTeach
+    | Teach
+    | AskGoto
+    | Goto
+    | Cancel
+)
 
 
 @dataclass
@@ -85,12 +155,25 @@ class JogPad:
     motion: MotionType = MotionType.JOINT
     jogging: JogDirection | None = None
     held_until: float = 0.0
+    teaching: bool = False
+    """Teach keys on: t stores the position into a point, g goes to one (``--teach FILE``)."""
+    entry: str | None = None
+    """"t" or "g" while a point number is typed; ``typed`` holds its digits."""
+    typed: str = ""
+    asking: AskTeach | AskGoto | None = None
     _actions: list[Action] = field(default_factory=list)
 
     def key(self, name: str, now: float) -> list[Action]:
         """Take one key press (or autorepeat) at time ``now``."""
         self._actions = []
-        if name in _PLUS or name in _MINUS:
+        if self.asking is not None:
+            self._answer(name)
+        elif self.entry is not None:
+            self._type(name)
+        elif self.teaching and name in ("t", "g"):
+            self._stop()
+            self.entry, self.typed = name, ""
+        elif name in _PLUS or name in _MINUS:
             direction = JogDirection.PLUS if name in _PLUS else JogDirection.MINUS
             if self.jogging is direction:
                 self.held_until = max(self.held_until, now + self.repeat_hold)
@@ -124,6 +207,36 @@ class JogPad:
             self._actions.append(Quit())
         return self._actions
 
+    def _type(self, name: str) -> None:
+        if name.isdigit() and len(self.typed) < 4:
+            self.typed += name
+        elif name == "backspace":
+            self.typed = self.typed[:-1]
+        elif name == "enter" and self.typed:
+            number = int(self.typed)
+            self.asking = AskTeach(number) if self.entry == "t" else AskGoto(number)
+            self.entry, self.typed = None, ""
+            self._actions.append(self.asking)
+        elif name in ("esc", "q", "ctrl-c", "enter"):
+            self.entry, self.typed = None, ""
+            self._actions.append(Cancel())
+
+    def _answer(self, name: str) -> None:
+        asked, self.asking = self.asking, None
+        if name in ("y", "Y") and asked is not None:
+            self._actions.append(
+                Teach(asked.point) if isinstance(asked, AskTeach) else Goto(asked.point)
+            )
+        else:
+            self._actions.append(Cancel())
+
+    def prompt(self) -> str:
+        """What the pad is waiting for, when it waits for more than jog keys."""
+        if self.entry is not None:
+            what = "store the position into" if self.entry == "t" else "go to"
+            return f"{what} point: {self.typed}_   (Enter: ok, Esc: cancel)"
+        return ""
+
     def tick(self, now: float) -> list[Action]:
         """Stop a jog whose key is no longer held."""
         self._actions = []
@@ -148,12 +261,16 @@ class _View:
     status: ChannelStatus | None = None
     message: Text = field(default_factory=Text)
     line_ok: bool = True
+    scara: bool = False
 
 
 _HELP = (
     "hold ←/→ jog −/+   1-6 or Tab pick the axis   ↑/↓ speed ±50   "
     "m joint/linear   space stop   q leave"
 )
+
+
+_TEACH_HELP = "t NUMBER Enter: store the position into that point   g NUMBER Enter: go there slowly"
 
 
 def _render(pad: JogPad, view: _View) -> RenderableType:
@@ -187,7 +304,11 @@ def _render(pad: JogPad, view: _View) -> RenderableType:
     if not view.line_ok:
         parts.append(Text("NO ANSWER FROM THE CONTROLLER", style="bold white on red"))
     parts.append(view.message)
+    if pad.prompt():
+        parts.append(Text(pad.prompt(), style="bold cyan"))
     parts.append(Text(_HELP, style="dim"))
+    if pad.teaching:
+        parts.append(Text(_TEACH_HELP, style="dim"))
     return Panel(Group(*parts), title="robostar jog", border_style="cyan")
 
 
@@ -198,13 +319,19 @@ def _jog_direction(text: str) -> JogDirection:
 class _PadRunner:
     """Drives the pad: keys from the terminal, actions on the client, the screen refreshed."""
 
-    def __init__(self, session: Session, pad: JogPad, view: _View, poll: float):
+    def __init__(
+        self, session: Session, pad: JogPad, view: _View, poll: float, teach: str | None = None
+    ):
         self.session = session
         self.client = session.client
         self.pad = pad
         self.view = view
         self.poll = poll
+        self.teach = teach
         self._jog = ExitStack()
+        self._taught: Point | None = None
+        self._last: tuple[float, ...] | None = None
+        self._still = 0
 
     def apply(self, action: Action) -> bool:
         """Carry out one action; False when the pad should close."""
@@ -224,6 +351,8 @@ class _PadRunner:
                 self.view.message = Text(f"speed {action.speed}")
             elif isinstance(action, ToggleMotion):
                 self.view.message = Text(f"motion {action.motion.name.lower()}")
+            elif isinstance(action, AskTeach | Teach | AskGoto | Goto | Cancel):
+                self._teach(action)
             else:
                 return False
         except ControllerError as error:
@@ -243,6 +372,58 @@ class _PadRunner:
             self.view.message = Text(str(error), "bold red")
         return True
 
+    def _teach(self, action: AskTeach | Teach | AskGoto | Goto | Cancel) -> None:
+        channel = self.view.channel
+        if isinstance(action, Cancel) or self.teach is None:
+            self.view.message = Text("cancelled", "dim")
+            return
+        target = Target(action.point, self.teach)
+        if isinstance(action, AskTeach):
+            old = read_point(self.client, channel, target)
+            self._taught = current_point(self.client, channel)
+            self.view.message = Text(
+                f"{target}: old {point_text(old)} -> new {point_text(self._taught)}. Store it? y/n",
+                "bold yellow",
+            )
+        elif isinstance(action, Teach) and self._taught is not None:
+            write_point(self.client, channel, target, self._taught)
+            self.view.message = Text(f"stored {point_text(self._taught)} in {target}", "green")
+            self._taught = None
+        elif isinstance(action, AskGoto):
+            point = read_point(self.client, channel, target)
+            if point is None:
+                self.pad.asking = None
+                self.view.message = Text(f"{target} is empty: teach it first", "bold red")
+                return
+            self.view.message = Text(
+                f"go to {target} {point_text(point)} at speed {GOTO_SPEED}? y/n", "bold yellow"
+            )
+        elif isinstance(action, Goto):
+            point = read_point(self.client, channel, target)
+            if point is not None:
+                self.view.message = Text(f"moving to {target}...", "yellow")
+                goto(self.client, channel, target, point, GOTO_SPEED)
+                self.view.message = Text(f"at {target}", "green")
+
+    def _stalled(self, position: Position) -> None:
+        """A jog whose position stops changing has been stopped by the controller: say why."""
+        if self.pad.jogging is None:
+            self._last, self._still = None, 0
+            return
+        if self._last == position.axes:
+            self._still += 1
+        else:
+            self._last, self._still = position.axes, 0
+        if self._still == 2:
+            why = "a soft limit"
+            if self.view.scara and self.pad.motion is MotionType.JOINT and self.pad.axis == 2:
+                near_zero = abs(position.axes[1]) < 1.0 if len(position.axes) > 1 else False
+                if near_zero:
+                    why = "the arm form would change (axis 2 crossing 0): jog it the other way"
+            elif self.view.scara and self.pad.motion is MotionType.LINEAR:
+                why = "a soft limit, or the arm form would change (the reach ends here)"
+            self.view.message = Text(f"the jog stopped: {why}", "bold red")
+
     def refresh(self) -> None:
         channel = self.view.channel
         kind = PositionKind.XY if self.pad.motion is MotionType.LINEAR else PositionKind.ANGLE
@@ -250,6 +431,7 @@ class _PadRunner:
             self.view.position = self.client.execute(ReadPosition(channel, kind))
             self.view.status = self.client.execute(ReadStatus())[channel - 1]
             self.view.line_ok = True
+            self._stalled(self.view.position)
         except ControllerError as error:
             self.view.message = Text(f"refused: {error.reason or error.describe}", "bold red")
         except LineError:
@@ -306,7 +488,7 @@ class _PadRunner:
 @click.option(
     "--for",
     "seconds",
-    type=click.FloatRange(0.0, 60.0),
+    type=Finite(0.0, 60.0),
     default=None,
     metavar="SECONDS",
     help="Jog for this long, then stop (no terminal needed).",
@@ -320,7 +502,7 @@ class _PadRunner:
 @click.option("--linear", is_flag=True, help="Jog along X/Y/Z (LMOV) instead of one joint.")
 @click.option(
     "--hold",
-    type=click.FloatRange(0.1, 2.0),
+    type=Finite(0.1, 2.0),
     default=0.55,
     show_default=True,
     metavar="SECONDS",
@@ -329,11 +511,20 @@ class _PadRunner:
 )
 @click.option(
     "--poll",
-    type=click.FloatRange(0.05, 5.0),
+    type=Finite(0.05, 5.0),
     default=0.2,
     show_default=True,
     metavar="SECONDS",
     help="How often the pad reads the position.",
+)
+@click.option(
+    "--teach",
+    "teach_file",
+    type=ControllerFile("PNT"),
+    default=None,
+    metavar="FILE.PNT",
+    help="Teach keys in the pad: t stores the position into a point of FILE.PNT (asks first), "
+    "g goes to a point at low speed (asks first).",
 )
 @common_options(channel=True)
 @pass_session
@@ -346,6 +537,7 @@ def jog(
     linear: bool,
     hold: float,
     poll: float,
+    teach_file: str | None,
 ) -> None:
     """Jog the robot from a full-screen pad: it moves only while you hold a key.
 
@@ -356,8 +548,9 @@ def jog(
 
     \b
     Example:
-      robostar jog
-      robostar jog --axis 3 --direction + --for 0.5
+      robostar --port sim:// jog
+      robostar --port sim:// jog --teach DEMO.PNT
+      robostar --port sim:// jog --axis 3 --direction + --for 0.5
     """
     channel = session.channel
     motion = MotionType.LINEAR if linear else MotionType.JOINT
@@ -387,9 +580,10 @@ def jog(
     axes = len(info.axes_in_use) or 6
     current_speed = session.send(ReadSpeed(channel))
     pad = JogPad(axes=axes, speed=current_speed, hold=hold, axis=min(axis, axes), motion=motion)
-    view = _View(channel, info.model)
+    pad.teaching = teach_file is not None
+    view = _View(channel, info.model, scara=info.robot_type is RobotType.SCARA)
     session.announce(f"Jog pad on channel {channel}: the robot moves while you hold a key.")
-    runner = _PadRunner(session, pad, view, poll)
+    runner = _PadRunner(session, pad, view, poll, teach_file)
     with reader.cbreak():
         runner.run(reader)
     pos = session.send(ReadPosition(channel, PositionKind.XY))

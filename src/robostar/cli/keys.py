@@ -28,7 +28,16 @@ _SEQUENCES = {
     "\x1bOC": "right",
     "\x1bOD": "left",
 }
-_SINGLE = {"\x1b": "esc", "\t": "tab", "\r": "enter", "\n": "enter", "\x03": "ctrl-c", " ": "space"}
+_SINGLE = {
+    "\x1b": "esc",
+    "\t": "tab",
+    "\r": "enter",
+    "\n": "enter",
+    "\x03": "ctrl-c",
+    " ": "space",
+    "\x7f": "backspace",
+    "\x08": "backspace",
+}
 
 
 class TerminalLost(Exception):

@@ -22,8 +22,8 @@ from rich.table import Table
 from rich.text import Text
 
 from robostar.cli.keys import KeyReader, TerminalLost
-from robostar.cli.options import common_options
-from robostar.cli.render import STATUS_BITS, format_number, jsonable, lamp, lamps_table
+from robostar.cli.options import Finite, common_options
+from robostar.cli.render import STATUS_BITS, jsonable, lamps_table
 from robostar.cli.session import Session, pass_session
 from robostar.commands.control import ReadSpeed
 from robostar.commands.io import ReadInputs, ReadOutputs
@@ -180,28 +180,45 @@ def render_sample(sampler: Sampler, sample: Sample, rate: float) -> RenderableTy
     if sampler.refusals:
         notes = "; ".join(f"{k}: {v}" for k, v in sorted(sampler.refusals.items()))
         parts.append(Text(f"not available: {notes}", style="dim"))
+    parts.append(Text(LEGEND, style="dim"))
     parts.append(Text("q leaves", style="dim"))
     return Panel(Group(*parts), title="robostar monitor", border_style="red" if failing else "cyan")
 
 
-_SHORT_BITS = ("servo", "origin", "alarm", "ready", "in pos", "run")
+_LETTERS = "SOARPM"
+LEGEND = "state: S servo on  O origin  A alarm  R ready  P in position  M moving"
+"""The state column's letters, one per AA bit, so that a channel's row fits 80 columns."""
+
+
+def _state(status: Any) -> Text:
+    text = Text()
+    for letter, name in zip(_LETTERS, STATUS_BITS, strict=True):
+        on = bool(getattr(status, name)) if status is not None else False
+        style = ("bold red" if name == "alarm" else "bold green") if on else "dim"
+        text.append(letter if on else "·", style=style)
+    return text
+
+
+def _position(values: tuple[float, ...]) -> str:
+    # One decimal: six axes fit the 80-column row (the pendant's three are in `position`).
+    return " ".join(f"{v:.1f}" for v in values)
 
 
 def _channels_table(sample: Sample, *, dim: bool) -> Table:
     table = Table(box=None, pad_edge=False, style="dim" if dim else "")
     table.add_column("ch")
-    table.add_column("model")
-    for label in _SHORT_BITS:
-        table.add_column(label, justify="center")
-    for column in ("position", "speed", "job", "step"):
-        table.add_column(column)
+    table.add_column("model", max_width=10, no_wrap=True, overflow="ellipsis")
+    table.add_column(_LETTERS, no_wrap=True)
+    table.add_column("position", no_wrap=True, overflow="ellipsis")
+    table.add_column("speed", justify="right")
+    table.add_column("job", no_wrap=True)
+    table.add_column("step", justify="right")
     for ch in sample.channels:
-        pos = "  ".join(format_number(v) for v in ch.position.axes) if ch.position else "-"
-        lamps = [lamp(getattr(ch.status, name), alarm=name == "alarm") for name in STATUS_BITS]
+        pos = _position(ch.position.axes) if ch.position else "-"
         table.add_row(
             str(ch.channel),
             ch.model,
-            *lamps,
+            _state(ch.status),
             pos,
             "-" if ch.speed is None else str(ch.speed),
             ch.job or "-",
@@ -230,7 +247,7 @@ def _parse_list(text: str, lo: int, hi: int, what: str) -> list[int]:
 @click.command()
 @click.option(
     "--rate",
-    type=click.FloatRange(0.1, 20.0),
+    type=Finite(0.1, 20.0),
     default=2.0,
     show_default=True,
     help="Refreshes per second.",

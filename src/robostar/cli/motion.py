@@ -9,7 +9,7 @@ import click
 from rich.console import Group
 from rich.text import Text
 
-from robostar.cli.options import common_options
+from robostar.cli.options import ControllerFile, Finite, common_options
 from robostar.cli.reading import position_json, position_view
 from robostar.cli.session import Session, pass_session
 from robostar.commands.control import StopHoming
@@ -58,7 +58,7 @@ def _motion_options(func: F) -> F:
 def _wait_options(func: F) -> F:
     func = click.option(
         "--wait-timeout",
-        type=click.FloatRange(min=0.1),
+        type=Finite(min=0.1),
         default=120.0,
         show_default=True,
         metavar="SECONDS",
@@ -199,7 +199,7 @@ def move(
 
 
 @click.command("move-point")
-@click.argument("file")
+@click.argument("file", type=ControllerFile("PNT"))
 @click.argument("point", type=click.IntRange(0, 9999))
 @click.option(
     "--via",

@@ -99,6 +99,8 @@ class Output:
 
     def __init__(self, json_mode: bool):
         self.json = json_mode
+        # Keys every JSON result carries (``"simulator": true``, the profile's name).
+        self.extra: dict[str, Any] = {}
         # Consoles resolve sys.stdout/sys.stderr when they print, so a test runner that swaps
         # the streams sees the output.
         self.console = Console(highlight=False)
@@ -111,7 +113,7 @@ class Output:
     ) -> None:
         """Print a result: ``data`` as JSON, or ``human`` (built only when needed)."""
         if self.json:
-            click.echo(json.dumps(jsonable(data), ensure_ascii=False))
+            click.echo(json.dumps(jsonable({**data, **self.extra}), ensure_ascii=False))
             return
         shown = human() if callable(human) else human
         if shown is not None:
@@ -133,3 +135,5 @@ class Output:
         self.err.print(Text("Error: ", style="bold red") + Text(failure.message))
         if failure.hint:
             self.err.print(Text(failure.hint, style="dim"))
+        if failure.detail:
+            self.err.print(Text(failure.detail, style="dim"))

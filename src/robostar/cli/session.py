@@ -2,9 +2,10 @@
 
 from __future__ import annotations
 
+import contextlib
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING, Any, TypeVar
+from typing import IO, TYPE_CHECKING, Any, TypeVar
 
 import click
 from rich.console import Group, RenderableType
@@ -12,12 +13,17 @@ from rich.table import Table
 from rich.text import Text
 
 from robostar.cli.annotate import describe_request
+from robostar.cli.profiles import Profile
+from robostar.cli.profiles import profile as load_profile
 from robostar.cli.render import Output
 from robostar.commands import Command
+from robostar.errors import UsageError
 from robostar.protocol.frame import encode_packet
 
 if TYPE_CHECKING:
     from robostar.client import Client
+    from robostar.client.trace import TraceRecord
+    from robostar.types import Alarm
 
 __all__ = ["DryRunDone", "PlannedFrame", "Session", "Settings", "pass_session"]
 
@@ -28,12 +34,13 @@ T = TypeVar("T")
 class Settings:
     """The global options."""
 
-    port: str
+    port: str | None
     timeout: float | None
     json: bool
     trace: str | None
     channel: int
     dry_run: bool
+    robot: str | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -48,6 +55,46 @@ class DryRunDone(Exception):
     """Raised after a dry run has printed its frames, to end the command without sending."""
 
 
+NO_TARGET = (
+    "no controller given: name one with --port URL (or the ROBOSTAR_PORT variable), or a "
+    "profile with --robot NAME (see `robostar profiles`); --port sim:// is the built-in simulator"
+)
+
+
+def describe_url(port: str) -> str:
+    """``port`` with the TCP port a ``tcp://host`` URL will use said aloud."""
+    from urllib.parse import urlsplit
+
+    from robostar.transport.url import DEFAULT_TCP_PORT
+
+    if not port.lower().startswith("tcp://"):
+        return port
+    try:
+        given = urlsplit(port).port
+    except ValueError:
+        return port
+    return port if given is not None else f"{port} (default port {DEFAULT_TCP_PORT})"
+
+
+def _maybe_served_simulator(port: str) -> bool:
+    """A target `robostar sim` may be serving: TCP on this machine, or a pseudo-terminal."""
+    from urllib.parse import urlsplit
+
+    lowered = port.strip().lower()
+    if lowered.startswith("tcp://"):
+        try:
+            host = urlsplit(lowered).hostname or ""
+        except ValueError:
+            return False
+        return host in ("localhost", "::1") or host.startswith("127.")
+    return lowered.startswith(("/dev/pts/", "serial:///dev/pts/"))
+
+
+def is_simulator(port: str) -> bool:
+    """True for the built-in simulator's URLs."""
+    return port.strip().lower().startswith("sim:")
+
+
 class Session:
     """Shared by every command of one run; ``ctx.obj`` of the root group."""
 
@@ -56,6 +103,72 @@ class Session:
         self.out = Output(settings.json)
         self._client: Client | None = None
         self._client_options: dict[str, Any] = {}
+        self._profile: Profile | None = None
+        self._resolved = False
+        self._trace_file: IO[str] | None = None
+        self.frames_sent = 0
+        """Frames this run wrote to the line: error messages never claim nothing was sent."""
+        self.changes_sent = 0
+        self.alarms_left: tuple[Alarm, ...] = ()
+        self._shared = False
+        self._served_simulator = False
+        self._child: Session | None = None
+        self._motion: tuple[str, int] | None = None
+        self.stopped_on_interrupt = ""
+        """What Ctrl-C stopped (a motion this run started), for the message."""
+        """Requests this run sent that change the controller (CHANGES_STATE)."""
+
+    @property
+    def profile(self) -> Profile | None:
+        """The profile named by --robot (read on first use)."""
+        self._resolve()
+        return self._profile
+
+    @property
+    def port(self) -> str:
+        """The controller's URL: --port, ROBOSTAR_PORT, or the profile's; an error when none."""
+        self._resolve()
+        port = self.settings.port or (self._profile.port if self._profile else None)
+        if not port:
+            raise click.UsageError(NO_TARGET)
+        return port
+
+    @property
+    def port_label(self) -> str:
+        """The URL for messages (with the TCP port used when the URL gave none), ``"(no port)"``
+        when none was given."""
+        try:
+            return describe_url(self.port)
+        except click.UsageError:
+            return "(no port)"
+
+    @property
+    def simulator(self) -> bool:
+        """``sim://``, or a served simulator that said so when asked (AD)."""
+        return self._served_simulator or is_simulator(self.port_label)
+
+    def banner(self) -> str:
+        """Which controller this run talks to: SIMULATOR when it is one, and the profile."""
+        port = self.port_label
+        parts = ["SIMULATOR" if self.simulator else "controller", port]
+        if self._profile is not None:
+            parts.append(f"robot {self._profile.name}")
+        return " | ".join(parts)
+
+    def _resolve(self) -> None:
+        if self._resolved:
+            return
+        self._resolved = True
+        if self.settings.robot:
+            self._profile = load_profile(self.settings.robot)
+        self._mark_output()
+
+    def _mark_output(self) -> None:
+        port = self.settings.port or (self._profile.port if self._profile else None)
+        if port and is_simulator(port):
+            self.out.extra["simulator"] = True
+        if self._profile is not None:
+            self.out.extra["robot"] = self._profile.name
 
     @property
     def channel(self) -> int:
@@ -69,7 +182,9 @@ class Session:
         """``--json`` given after the command name."""
         if on and not self.settings.json:
             self.settings = replace(self.settings, json=True)
+            extra = self.out.extra
             self.out = Output(True)
+            self.out.extra.update(extra)
 
     def set_channel(self, channel: int) -> None:
         """``--channel`` given after the command name."""
@@ -88,18 +203,144 @@ class Session:
             # Imported here: `decode` and `raw --dry-run` run without opening any transport.
             from robostar.client import Client
 
-            options: dict[str, Any] = dict(self._client_options)
+            port = self.port
+            options: dict[str, Any] = {}
+            if self._profile is not None:
+                if self._profile.timeout is not None:
+                    options["timeout"] = self._profile.timeout
+                if self._profile.baud is not None and not is_simulator(port):
+                    options["baudrate"] = self._profile.baud
+            options.update(self._client_options)
             if self.settings.timeout is not None:
                 options["timeout"] = self.settings.timeout
             if self.settings.trace:
-                options["trace"] = self.settings.trace
-            self._client = Client(self.settings.port, **options)
+                self._trace_file = _open_trace(self.settings.trace)
+            options["trace"] = self._on_frame
+            shown = self.simulator or self._profile is not None or describe_url(port) != port
+            if shown:
+                self._banner()
+            client = Client(port, **options)
+            self._client = client
+            if _maybe_served_simulator(port):
+                self._identify(client)
+                if self._served_simulator:
+                    self._banner()
         return self._client
 
+    def _banner(self) -> None:
+        if not self.settings.json:
+            self.out.note(self.banner(), style="bold magenta" if self.simulator else "dim")
+
+    def _identify(self, client: Client) -> None:
+        """Ask a loopback or pseudo-terminal target what it is (AD): `robostar sim` serves
+        there, and a simulator must never pass for a robot. The read is not counted as sent."""
+        from robostar.commands.status import ReadInfo
+        from robostar.errors import RobostarError
+
+        counted = self.frames_sent
+        try:
+            info = client.execute(ReadInfo())
+        except RobostarError:
+            return  # the command itself will meet and report the trouble
+        finally:
+            self.frames_sent = counted
+        if info.name.upper().endswith("-SIM") or info.version.upper().endswith("-SIM"):
+            self._served_simulator = True
+            self.out.extra["simulator"] = True
+
+    def read_alarms_left(self) -> None:
+        """Read the controller's current alarms (AB) after a refusal into ``alarms_left``;
+        none if that fails or no connection is open (never opened just to look)."""
+        if self._client is None or self.dry_run:
+            return
+        from robostar.commands.status import ReadAlarms
+        from robostar.errors import RobostarError
+
+        with contextlib.suppress(RobostarError):
+            self.alarms_left = self._client.execute(ReadAlarms())
+
+    def share(self, parent: Session) -> None:
+        """Run on ``parent``'s connection (the shell's): same target, same open client, which
+        this session never closes; frames it sends are counted here too."""
+        if self.settings.trace:
+            raise click.UsageError("--trace: give it to `robostar shell` itself, for every line")
+        if self.settings.port or self.settings.robot:
+            raise click.UsageError(
+                f"the shell is connected to {parent.port}; leave it (exit) to change --port/--robot"
+            )
+        self._profile = parent.profile
+        self.settings = replace(self.settings, port=parent.port)
+        self._resolved = False
+        self._resolve()
+        self._client = parent.client
+        self._shared = True
+        self._served_simulator = parent.simulator and not is_simulator(parent.port)
+        if parent.simulator:
+            self.out.extra["simulator"] = True
+        parent._child = self
+
+    def stop_started_motion(self) -> None:
+        """After Ctrl-C: stop a motion this run started and that is still going (CI for homing,
+        CD for a job, BG for a jog, CF for a move, which has no gentler stop)."""
+        if self._motion is None or self._client is None:
+            return
+        code, channel = self._motion
+        from robostar.commands.control import EmergencyStop, StopHoming, StopJob
+        from robostar.commands.motion import JogStop
+        from robostar.commands.status import ReadStatus
+        from robostar.errors import RobostarError
+
+        try:
+            status = self._client.execute(ReadStatus())[channel - 1]
+            if not status.running and status.in_position:
+                return
+            stop = _STOPS[code]
+            command = {
+                "CI": StopHoming(channel),
+                "CD": StopJob(channel),
+                "BG": JogStop(channel),
+                "CF": EmergencyStop(),
+            }[stop]
+            self._client.execute(command)
+        except (RobostarError, KeyboardInterrupt):
+            self.stopped_on_interrupt = f"could not stop the {code} motion: check the robot"
+            return
+        words = {
+            "CI": f"stopped the homing of channel {channel} (CI)",
+            "CD": f"stopped the job of channel {channel} (CD)",
+            "BG": f"stopped the jog of channel {channel} (BG)",
+            "CF": f"stopped the move of channel {channel} with an emergency stop (CF): "
+            "clear its alarm with `robostar reset`",
+        }
+        self.stopped_on_interrupt = words[stop]
+
+    def end_line(self) -> None:
+        """A shell line's session is done: its frames are no longer counted there."""
+        self._child = None
+
+    def _on_frame(self, record: TraceRecord) -> None:
+        if self._child is not None:
+            self._child._on_frame(record)
+        if record.direction == "tx":
+            self.frames_sent += 1
+            if record.kind == "request" and _changes_state(record.command):
+                self.changes_sent += 1
+            if record.kind == "request" and record.command in _STOPS:
+                channel = (record.fields or {}).get("channel", self.channel)
+                self._motion = (record.command, int(channel))
+        if self._trace_file is not None:
+            self._trace_file.write(record.to_json() + "\n")
+
     def close(self) -> None:
-        if self._client is not None:
-            client, self._client = self._client, None
-            client.close()
+        try:
+            if self._client is not None:
+                client, self._client = self._client, None
+                if not self._shared:
+                    client.close()
+        finally:
+            if self._trace_file is not None:
+                trace, self._trace_file = self._trace_file, None
+                trace.close()
 
     def send(self, command: Command[T]) -> T:
         """Run ``command`` on the controller; in a dry run, print its frame and stop."""
@@ -117,8 +358,12 @@ class Session:
         ]
         rows = [{"hex": p.frame.hex(" "), "meaning": p.meaning} for p in planned]
         self.out.result(
-            {"dry_run": True, "port": self.settings.port, "frames": rows, "note": note},
-            lambda: _plan_table(planned, note, self.settings.port),
+            {"dry_run": True, "port": self.port_label, "frames": rows, "note": note},
+            lambda: _plan_table(
+                planned,
+                note,
+                f"{self.port_label} (SIMULATOR)" if self.simulator else self.port_label,
+            ),
         )
         raise DryRunDone
 
@@ -126,6 +371,23 @@ class Session:
         """Say what is about to move, before it does (not in a dry run, where nothing moves)."""
         if not self.dry_run:
             self.out.warn(text)
+
+
+_STOPS = {"BA": "CI", "CC": "CD", "BE": "BG", "BF": "BG", "BB": "CF", "BC": "CF", "BD": "CF"}
+"""The stop for each motion a run may start (a move has only the emergency stop)."""
+
+
+def _changes_state(code: str | None) -> bool:
+    from robostar.commands import COMMANDS
+
+    return any(c.CHANGES_STATE for c in COMMANDS.get(code or "", ()))
+
+
+def _open_trace(path: str) -> IO[str]:
+    try:
+        return open(path, "a", encoding="utf-8", buffering=1)
+    except OSError as error:
+        raise UsageError(f"trace: cannot open {path!r}: {error}") from error
 
 
 def _plan_table(planned: Sequence[PlannedFrame], note: str, port: str) -> RenderableType:

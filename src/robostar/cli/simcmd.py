@@ -7,15 +7,16 @@ import sys
 from urllib.parse import parse_qsl
 
 import click
+from rich.text import Text
 
-from robostar.cli.options import common_options
+from robostar.cli.options import Finite, common_options
 from robostar.cli.session import Session, pass_session
 from robostar.errors import UsageError
 
 __all__ = ["sim", "sim_input"]
 
 
-@click.command()
+@click.group(invoke_without_command=True)
 @click.option(
     "--listen",
     default="127.0.0.1:9100",
@@ -54,7 +55,7 @@ __all__ = ["sim", "sim_input"]
 )
 @click.option(
     "--turnaround",
-    type=click.FloatRange(0.0, 5.0),
+    type=Finite(0.0, 5.0),
     default=0.0,
     metavar="SECONDS",
     help="Delay before each answer leaves, like a real controller's.",
@@ -102,6 +103,8 @@ def sim(
 ) -> None:
     """Run the simulator: a virtual N1 for other programs (or another robostar) to talk to.
 
+    `robostar sim alarm raise CODE` / `clear` act on a running one (see `sim alarm --help`).
+
     Each endpoint is printed when it is ready (with --json, one JSON line listing them); point
     --port at it. Ctrl-C or SIGTERM stops it.
 
@@ -112,6 +115,8 @@ def sim(
       robostar sim --pty --listen none --fault corrupt:0.01
       robostar sim --control 127.0.0.1:9199     # then: robostar sim-input 0 3 on
     """
+    if click.get_current_context().invoked_subcommand is not None:
+        return
     from robostar.sim import SimConfig
     from robostar.sim.server import serve
 
@@ -197,3 +202,88 @@ def sim_input(
         click.echo(json.dumps({"port": port, "contact": contact, "on": state.lower() == "on"}))
     else:
         click.echo(f"input {port}.{contact} {state.lower()}")
+
+
+@sim.group("alarm")
+def sim_alarm() -> None:
+    """Raise an alarm in a running simulator (its control socket), or clear its alarms.
+
+    \b
+    Example:
+      robostar sim --control 127.0.0.1:9199 &
+      robostar sim alarm raise 1153 --channel 1
+      robostar --port tcp://127.0.0.1:9100 sim alarm clear
+    """
+
+
+@sim_alarm.command("raise")
+@click.argument("code", type=click.IntRange(0, 9999))
+@click.option(
+    "--channel",
+    "alarm_channel",
+    type=click.Choice(["1", "2", "3", "9"]),
+    default="9",
+    show_default=True,
+    help="The channel it belongs to (9: all).",
+)
+@click.option(
+    "--control",
+    default="127.0.0.1:9199",
+    show_default=True,
+    metavar="HOST:PORT",
+    help="The control socket a `robostar sim --control` opened.",
+)
+@click.option("--controller", type=click.IntRange(1, 32), default=1, show_default=True)
+@common_options()
+@pass_session
+def sim_alarm_raise(
+    session: Session, code: int, alarm_channel: str, control: str, controller: int
+) -> None:
+    """Raise alarm CODE in a running simulator, as a fault on the robot would.
+
+    \b
+    Example:
+      robostar sim alarm raise 1153 --channel 1
+    """
+    from robostar.sim.control import send_control
+    from robostar.sim.server import parse_listen
+
+    line = f"alarm {code} {alarm_channel} {controller}"
+    try:
+        answer = send_control(parse_listen(control), line)
+    except OSError as error:
+        raise UsageError(
+            f"no simulator control socket at {control} ({error}); start one with "
+            f"`robostar sim --control {control}`"
+        ) from None
+    if answer != "ok":
+        raise UsageError(f"the simulator refused: {answer.removeprefix('error: ')}")
+    session.out.result(
+        {"ok": True, "code": code, "channel": int(alarm_channel), "simulator": True},
+        Text(f"SIMULATOR: alarm {code} raised on channel {alarm_channel}."),
+    )
+
+
+@sim_alarm.command("clear")
+@common_options()
+@pass_session
+def sim_alarm_clear(session: Session) -> None:
+    """Clear a simulator's alarms (CG over --port, which must be a simulator).
+
+    \b
+    Example:
+      robostar --port tcp://127.0.0.1:9100 sim alarm clear
+    """
+    from robostar.commands.control import ResetAlarms
+
+    client = session.client
+    name = client.info().name
+    if not (session.simulator or name.upper().endswith("-SIM")):
+        raise UsageError(
+            f"--port: {session.port} is a real controller ({name}); clear its alarms with "
+            "`robostar reset` once the cause is fixed"
+        )
+    client.execute(ResetAlarms())
+    session.out.result(
+        {"ok": True, "cleared": True}, Text("SIMULATOR: alarms cleared.", style="green")
+    )

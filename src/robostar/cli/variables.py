@@ -40,7 +40,7 @@ def global_() -> None:
     \b
     Example:
       robostar global get int 5
-      robostar global set point 10 100,200,0,0 --arm left
+      robostar global set point 10 300,200,0,0 --xy --arm left
     """
 
 
@@ -120,7 +120,7 @@ def global_set(
     Example:
       robostar global set int 5 42
       robostar global set float 3 -1.25
-      robostar global set point 10 100 200 0 0 --arm left
+      robostar global set point 10 300 200 0 0 --xy --arm left
       robostar global set point 10 55.5 --axis 3
     """
     kind = kind.lower()
@@ -130,6 +130,13 @@ def global_set(
         if axis and len(axes) != 1:
             raise UsageError(f"--axis {axis} writes one value, not {len(axes)}")
         coords = CoordSystem.XY if xy else CoordSystem.ANGLE
+        if arm != "keep" and not xy:
+            # In joint angles the arm form follows from the angles themselves (the controller
+            # recomputes it), so an --arm here would be silently ignored.
+            raise UsageError(
+                f"--arm {arm}: with joint angles the arm form follows from the angles; "
+                "give the point with --xy to choose the arm form"
+            )
         point = Point(axes, _ARMS[arm])
         session.send(WriteGlobalPoint(session.channel, index, point, coords, axis))
         done(

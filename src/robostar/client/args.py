@@ -17,6 +17,7 @@ from robostar.protocol.fields import check_channel, encode_coord
 from robostar.types import CoordSystem, JogDirection, MotionType, PositionKind
 
 __all__ = [
+    "MAX_SECONDS",
     "axes",
     "boolean",
     "channel",
@@ -88,12 +89,19 @@ def boolean(value: object, name: str) -> bool:
     return value
 
 
+MAX_SECONDS = 1_000_000.0
+"""The longest timeout or interval taken (11 days): the clock's waits overflow near 1e10 s."""
+
+
 def positive(value: object, name: str) -> float:
-    """A finite number above zero (a timeout, an interval)."""
+    """A finite number of seconds above zero and at most ``MAX_SECONDS`` (a timeout, an
+    interval)."""
     if isinstance(value, bool) or not isinstance(value, int | float) or not value > 0:
         raise UsageError(f"{name}: must be a number above 0, not {value!r}")
     if not math.isfinite(value):
         raise UsageError(f"{name}: must be finite, not {value!r}")
+    if value > MAX_SECONDS:
+        raise UsageError(f"{name}: must be at most {MAX_SECONDS:.0f} seconds, not {value!r}")
     return float(value)
 
 

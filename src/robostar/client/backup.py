@@ -3,30 +3,48 @@
 A backup folder holds ``ch<N>/<NAME>.JOB`` and ``ch<N>/<NAME>.PNT`` (one step or point line per
 text line, PNT points in angle coordinates in FA's point-line format) and ``manifest.json``:
 the controller's AD info, and per file its channel, name, JOB number, size, steps, byte count
-and sha256. A restore checks every file against the manifest, uploads them all, then reads each
-back with FA and compares.
+and sha256.
+
+Neither direction loses data. A backup is written into a temporary folder beside the target
+and swapped into place only when complete, so an interrupted backup leaves the previous one
+intact; a non-empty folder that is not a robostar backup is refused. A restore first validates
+the whole manifest (names, kinds, channels, paths inside the backup), then reads every file,
+then reads the target (identity, file list, contents) and writes nothing if any check fails;
+only then does it upload what is new or changed and read each upload back.
 """
 
 from __future__ import annotations
 
+import fnmatch
 import hashlib
 import json
 import os
-from dataclasses import asdict, dataclass
+import shutil
+import tempfile
+from collections.abc import Callable, Sequence
+from dataclasses import asdict, dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
 
 from robostar.client.driver import upload_matches
 from robostar.client.exchange import Progress
-from robostar.client.files import download_job, download_points, point_lines
+from robostar.client.files import NAME_RULE, download_job, download_points, point_lines
 from robostar.client.plan import Plan, call
-from robostar.commands.files import DownloadFile, ListFiles, UploadFile
+from robostar.commands.files import DeleteFile, DownloadFile, ListFiles, UploadFile
 from robostar.commands.status import ReadInfo
-from robostar.errors import UploadIncompleteError, UsageError
+from robostar.errors import FieldError, UploadIncompleteError, UsageError
 from robostar.protocol.fields import FileName
-from robostar.types import ChannelInfo, ControllerInfo, CoordSystem, RobotType
+from robostar.types import ChannelInfo, ControllerInfo, CoordSystem, JobFile, PointFile, RobotType
 
-__all__ = ["MANIFEST", "BackupFile", "Manifest", "backup_plan", "restore_plan"]
+__all__ = [
+    "MANIFEST",
+    "BackupFile",
+    "Manifest",
+    "RestoreDiff",
+    "backup_plan",
+    "restore_plan",
+    "validate_manifest",
+]
 
 MANIFEST = "manifest.json"
 FORMAT = "robostar-backup"
@@ -120,8 +138,8 @@ def _relative(channel: int, name: FileName) -> str:
 
 
 def _text(lines: tuple[str, ...]) -> bytes:
-    # FA decodes bytes a controller should never send as U+FFFD; they are written as "?".
-    return "".join(line + "\n" for line in lines).encode("ascii", "replace")
+    # Job lines outside ASCII are refused by download_job; points are formatted as ASCII.
+    return "".join(line + "\n" for line in lines).encode("ascii")
 
 
 def _lines(data: bytes) -> tuple[str, ...]:
@@ -134,9 +152,77 @@ def _report(progress: Progress | None, done: int, total: int) -> None:
         progress(done, total)
 
 
-def backup_plan(folder: str | os.PathLike[str], progress: Progress | None) -> Plan[Manifest]:
-    """Download every file of every defined channel into ``folder``; ``progress`` per file."""
+def is_backup(folder: Path) -> bool:
+    """Does ``folder`` hold a robostar backup (a manifest this module wrote)?"""
+    try:
+        data = json.loads((folder / MANIFEST).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return False
+    return isinstance(data, dict) and data.get("format") == FORMAT
+
+
+def _check_target(root: Path, keep: int | None) -> None:
+    """Refuse, before anything is sent, a target that a backup must not replace."""
+    if root.exists() and not root.is_dir():
+        raise UsageError(f"folder: {str(root)!r} exists and is not a folder")
+    if keep is None:
+        if root.is_dir() and any(root.iterdir()) and not is_backup(root):
+            raise UsageError(
+                f"folder: {str(root)!r} is not empty and is not a robostar backup; "
+                "give an empty or new folder (nothing was replaced)"
+            )
+        return
+    if isinstance(keep, bool) or not isinstance(keep, int) or keep < 1:
+        raise UsageError(f"keep: must be a whole number 1 or more, not {keep!r}")
+    if root.is_dir():
+        strays = [p.name for p in root.iterdir() if not _is_generation(p)]
+        if strays:
+            raise UsageError(
+                f"folder: {str(root)!r} holds {strays[0]!r}, which is not a backup generation; "
+                "--keep needs a folder of its own"
+            )
+
+
+def _is_generation(path: Path) -> bool:
+    return path.is_dir() and path.name.startswith("backup-") and is_backup(path)
+
+
+def _stamp() -> str:
+    return datetime.now(UTC).strftime("backup-%Y%m%dT%H%M%S%fZ")
+
+
+def backup_plan(
+    folder: str | os.PathLike[str], progress: Progress | None, keep: int | None = None
+) -> Plan[Manifest]:
+    """Download every file of every defined channel into ``folder``; ``progress`` per file.
+
+    Without ``keep`` the backup is ``folder`` itself (a previous backup there is replaced only
+    once the new one is complete). With ``keep=N``, ``folder`` holds timestamped generations
+    ``backup-<UTC time>`` and only the newest N are kept.
+    """
     root = _folder(folder)
+    _check_target(root, keep)
+    target = root / _stamp() if keep is not None else root
+    try:
+        target.parent.mkdir(parents=True, exist_ok=True)
+        work = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".part", dir=target.parent))
+        work.chmod(0o755)  # mkdtemp makes it private; a backup folder is an ordinary folder
+    except OSError as exc:
+        raise UsageError(f"folder: cannot create {str(root)!r}: {exc}") from exc
+    try:
+        manifest = yield from _download_all(work, progress)
+        _swap_into_place(work, target)
+    except BaseException:
+        shutil.rmtree(work, ignore_errors=True)
+        raise
+    if keep is not None:
+        generations = sorted(p for p in root.iterdir() if _is_generation(p))
+        for old in generations[:-keep]:
+            shutil.rmtree(old, ignore_errors=True)
+    return manifest
+
+
+def _download_all(work: Path, progress: Progress | None) -> Plan[Manifest]:
     info = yield from call(ReadInfo())
     listing = []
     for channel in info.channels[: info.max_channels]:
@@ -144,10 +230,6 @@ def backup_plan(folder: str | os.PathLike[str], progress: Progress | None) -> Pl
             continue
         records = yield from call(ListFiles(channel.channel, "*"))
         listing += [(channel.channel, record) for record in records]
-    try:
-        root.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise UsageError(f"folder: cannot create {str(root)!r}: {exc}") from exc
     files = []
     for done, (channel_number, record) in enumerate(listing, 1):
         name = FileName.parse(record.name)
@@ -158,9 +240,9 @@ def backup_plan(folder: str | os.PathLike[str], progress: Progress | None) -> Pl
             lines = point_lines(points)
         data = _text(lines)
         relative = _relative(channel_number, name)
-        target = root / relative
-        target.parent.mkdir(exist_ok=True)
-        target.write_bytes(data)
+        path = work / relative
+        path.parent.mkdir(exist_ok=True)
+        path.write_bytes(data)
         digest = hashlib.sha256(data).hexdigest()
         files.append(
             BackupFile(
@@ -177,32 +259,158 @@ def backup_plan(folder: str | os.PathLike[str], progress: Progress | None) -> Pl
         _report(progress, done, len(listing))
     created = datetime.now(UTC).isoformat(timespec="seconds")
     manifest = Manifest(created, info, tuple(files))
-    (root / MANIFEST).write_text(manifest.to_json(), encoding="utf-8")
+    # The manifest goes last: a folder without one is never taken for a complete backup.
+    (work / MANIFEST).write_text(manifest.to_json(), encoding="utf-8")
     return manifest
 
 
-def _read_backup(root: Path, manifest: Manifest) -> list[UploadFile]:
-    """Every file of the backup as its upload, each checked against the manifest first."""
+def _swap_into_place(work: Path, target: Path) -> None:
+    """Rename the finished backup to ``target``; a previous backup there is removed only after
+    the new one is in place."""
+    if not target.exists():
+        os.replace(work, target)
+        return
+    old = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".old", dir=target.parent))
+    old.rmdir()
+    os.replace(target, old)
+    try:
+        os.replace(work, target)
+    except BaseException:
+        os.replace(old, target)
+        raise
+    shutil.rmtree(old, ignore_errors=True)
+
+
+# -- restore ----------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, slots=True)
+class RestoreDiff:
+    """What a restore would do, per file (``ch<N>/<NAME>``), found by the preflight.
+
+    ``extra`` are files on the controller that the backup does not hold: kept, unless the
+    restore was asked to delete them (``delete`` then lists the JOB files it would delete;
+    PNT files cannot be deleted).
+    """
+
+    new: tuple[str, ...] = ()
+    changed: tuple[str, ...] = ()
+    unchanged: tuple[str, ...] = ()
+    extra: tuple[str, ...] = ()
+    delete: tuple[str, ...] = ()
+    identity: tuple[str, ...] = field(default=())
+
+    @property
+    def writes(self) -> int:
+        return len(self.new) + len(self.changed) + len(self.delete)
+
+
+def validate_manifest(manifest: Manifest) -> None:
+    """Check every entry (name, kind, channel, path inside the backup, no duplicates) before
+    any path is read; the error names the entry."""
+    seen: set[tuple[int, str]] = set()
+    for i, entry in enumerate(manifest.files, 1):
+        where = f"folder: {MANIFEST} file {i}"
+        if not isinstance(entry.channel, int) or not 1 <= entry.channel <= 3:
+            raise UsageError(f"{where}: channel must be 1-3, not {entry.channel!r}")
+        if not isinstance(entry.name, str):
+            raise UsageError(f"{where}: name must be text, not {entry.name!r}")
+        name = FileName.parse(entry.name)
+        if str(name) != entry.name or name.problem() is not None:
+            raise UsageError(f"{where}: name {entry.name!r}: {NAME_RULE}")
+        expected = _relative(entry.channel, name)
+        if entry.path != expected:
+            raise UsageError(
+                f"{where}: path {entry.path!r} must be {expected!r} (inside the backup folder)"
+            )
+        for number in ("job_number", "size_kb", "steps", "bytes"):
+            value = getattr(entry, number)
+            if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+                raise UsageError(f"{where}: {number} must be a whole number, not {value!r}")
+        if not 0 <= entry.job_number <= 200:
+            raise UsageError(f"{where}: job_number {entry.job_number} is out of range 0..200")
+        if not isinstance(entry.sha256, str) or len(entry.sha256) != 64:
+            raise UsageError(f"{where}: sha256 must be 64 hex digits")
+        key = (entry.channel, name.key)
+        if key in seen:
+            raise UsageError(f"{where}: {expected} is listed twice")
+        seen.add(key)
+
+
+def _read_backup(root: Path, entries: Sequence[BackupFile]) -> list[UploadFile]:
+    """Every chosen file of the backup as its upload, each checked against the manifest."""
     uploads = []
-    for entry in manifest.files:
+    resolved_root = root.resolve()
+    for entry in entries:
         name = FileName.parse(entry.name)
         relative = _relative(entry.channel, name)
+        path = (root / relative).resolve()
+        if resolved_root not in path.parents:
+            raise UsageError(f"folder: {relative} leads outside the backup folder")
         try:
-            data = (root / relative).read_bytes()
+            data = path.read_bytes()
         except OSError as exc:
             raise UsageError(f"folder: cannot read {relative}: {exc}") from exc
         if len(data) != entry.bytes or hashlib.sha256(data).hexdigest() != entry.sha256:
             raise UsageError(f"folder: {relative} does not match its size and sha256 in {MANIFEST}")
-        upload = UploadFile(entry.channel, name, entry.job_number, _lines(data))
-        upload.encode()  # every line is checked before anything is sent
+        try:
+            upload = UploadFile(entry.channel, name, entry.job_number, _lines(data))
+            upload.encode()  # every line is checked before anything is sent
+        except (UnicodeDecodeError, FieldError) as exc:
+            raise UsageError(f"folder: {relative} cannot be uploaded: {exc}") from exc
         uploads.append(upload)
     return uploads
 
 
-def restore_plan(folder: str | os.PathLike[str], progress: Progress | None) -> Plan[Manifest]:
-    """Upload a backup, then read every file back and compare.
+def _identity(saved: ControllerInfo, target: ControllerInfo, channels: set[int]) -> list[str]:
+    """How the target differs from the controller the backup came from, per restored channel."""
+    problems = []
+    if saved.version != target.version:
+        problems.append(f"version: backup {saved.version!r}, controller {target.version!r}")
+    theirs = {ch.channel: ch for ch in target.channels[: target.max_channels]}
+    for ch in saved.channels:
+        if ch.channel not in channels:
+            continue
+        other = theirs.get(ch.channel)
+        if other is None:
+            problems.append(f"channel {ch.channel}: the controller does not have it")
+            continue
+        if ch.robot_type is not other.robot_type:
+            problems.append(
+                f"channel {ch.channel} robot type: backup {ch.robot_type.name}, "
+                f"controller {other.robot_type.name}"
+            )
+        if tuple(ch.axes_in_use) != tuple(other.axes_in_use):
+            problems.append(
+                f"channel {ch.channel} axes: backup {list(ch.axes_in_use)}, "
+                f"controller {list(other.axes_in_use)}"
+            )
+    return problems
 
-    ``progress(done, total)`` counts uploads then read-backs (total: twice the files).
+
+def _same(upload: UploadFile, content: JobFile | PointFile) -> bool:
+    return upload_matches(upload, content)
+
+
+def restore_plan(
+    folder: str | os.PathLike[str],
+    progress: Progress | None,
+    *,
+    channels: Sequence[int] | None = None,
+    only: str | None = None,
+    dry_run: bool = False,
+    confirm: Callable[[RestoreDiff], bool] | None = None,
+    delete_extra: bool = False,
+    ignore_identity: bool = False,
+) -> Plan[Manifest]:
+    """Preflight, then upload what is new or changed and read each upload back.
+
+    The preflight validates the manifest, reads every chosen file of the backup, and reads
+    the target (AD identity, FD lists, FA of each file present on both sides); if anything
+    fails, or ``confirm(diff)`` says no, or ``dry_run``, nothing is written (``confirm`` sees
+    the diff in a dry run as well, and its answer is then ignored). ``channels`` and
+    ``only`` (a name pattern such as ``"*.PNT"``) choose files; ``progress(done, total)``
+    counts the writes then the read-backs.
     """
     root = _folder(folder)
     try:
@@ -210,17 +418,92 @@ def restore_plan(folder: str | os.PathLike[str], progress: Progress | None) -> P
     except OSError as exc:
         raise UsageError(f"folder: cannot read {MANIFEST}: {exc}") from exc
     manifest = Manifest.from_json(text)
-    uploads = _read_backup(root, manifest)
-    total = 2 * len(uploads)
-    for done, upload in enumerate(uploads, 1):
+    validate_manifest(manifest)
+    wanted = set(channels) if channels is not None else {1, 2, 3}
+    if not wanted <= {1, 2, 3}:
+        raise UsageError(f"channels: channels are 1-3, not {sorted(wanted)}")
+    entries = [
+        e
+        for e in manifest.files
+        if e.channel in wanted and (only is None or fnmatch.fnmatch(e.name.upper(), only.upper()))
+    ]
+    uploads = _read_backup(root, entries)
+
+    target_info = yield from call(ReadInfo())
+    defined = {
+        ch.channel
+        for ch in manifest.controller.channels[: manifest.controller.max_channels]
+        if ch.robot_type is not RobotType.NOT_DEFINED
+    }
+    restored = {u.channel for u in uploads} | (wanted & defined if delete_extra else set())
+    identity = _identity(manifest.controller, target_info, restored)
+    if identity and not ignore_identity:
+        raise UsageError(
+            "folder: the controller is not the one the backup came from ("
+            + "; ".join(identity)
+            + "); nothing was written"
+        )
+    diff = yield from _preflight(uploads, restored, only, delete_extra, identity)
+    agreed = confirm(diff) if confirm is not None else True
+    if dry_run or not agreed:
+        return manifest
+    writes = [u for u in uploads if _relative(u.channel, u.file) in set(diff.new + diff.changed)]
+    total = len(writes) * 2 + len(diff.delete)
+    done = 0
+    for upload in writes:
         yield from call(upload)
+        done += 1
         _report(progress, done, total)
-    for done, upload in enumerate(uploads, len(uploads) + 1):
+    for relative in diff.delete:
+        channel, name = relative.split("/", 1)
+        yield from call(DeleteFile(int(channel[2:]), FileName.parse(name)))
+        done += 1
+        _report(progress, done, total)
+    for upload in writes:
         content = yield from call(DownloadFile(upload.channel, upload.file, CoordSystem.ANGLE))
-        if not upload_matches(upload, content):
+        if not _same(upload, content):
             raise UploadIncompleteError(
-                f"restore: {_relative(upload.channel, FileName.parse(str(upload.file)))} read back"
+                f"restore: {_relative(upload.channel, upload.file)} read back"
                 " from the controller differs from the backup"
             )
+        done += 1
         _report(progress, done, total)
     return manifest
+
+
+def _preflight(
+    uploads: Sequence[UploadFile],
+    wanted: set[int],
+    only: str | None,
+    delete_extra: bool,
+    identity: Sequence[str],
+) -> Plan[RestoreDiff]:
+    new: list[str] = []
+    changed: list[str] = []
+    unchanged: list[str] = []
+    extra: list[str] = []
+    channels = sorted({u.channel for u in uploads} | (wanted if delete_extra else set()))
+    channels = [c for c in channels if c in wanted]
+    present: dict[int, dict[str, str]] = {}
+    for channel in channels:
+        records = yield from call(ListFiles(channel, "*"))
+        present[channel] = {FileName.parse(r.name).key: r.name for r in records}
+    ours = {(u.channel, u.file.key) for u in uploads}
+    for upload in uploads:
+        relative = _relative(upload.channel, upload.file)
+        if upload.file.key not in present[upload.channel]:
+            new.append(relative)
+            continue
+        content = yield from call(DownloadFile(upload.channel, upload.file, CoordSystem.ANGLE))
+        (unchanged if _same(upload, content) else changed).append(relative)
+    for channel in channels:
+        for key, name in present[channel].items():
+            if (channel, key) in ours:
+                continue
+            if only is not None and not fnmatch.fnmatch(key, only.upper()):
+                continue
+            extra.append(f"ch{channel}/{name}")
+    delete = tuple(e for e in extra if delete_extra and e.upper().endswith(".JOB"))
+    return RestoreDiff(
+        tuple(new), tuple(changed), tuple(unchanged), tuple(extra), delete, tuple(identity)
+    )

@@ -2,21 +2,24 @@
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping, Sequence
 
 from robostar.client.exchange import Progress
 from robostar.client.plan import Plan, call
 from robostar.commands.files import DownloadFile, ListFiles, UploadFile, format_point_line
-from robostar.errors import FieldError, UsageError
+from robostar.errors import FieldError, MalformedAnswerError, UsageError
 from robostar.protocol.fields import FileName
 from robostar.types import CoordSystem, JobFile, Point, PointFile
 
 __all__ = [
     "MAX_JOB_NUMBER",
+    "NAME_RULE",
     "download_job",
     "download_points",
     "file_name",
     "job_number",
+    "parse_name",
     "point_lines",
     "upload",
 ]
@@ -24,11 +27,27 @@ __all__ = [
 MAX_JOB_NUMBER = 200
 
 
+NAME_RULE = (
+    "a controller file name is 1-5 letters, digits or _ in one case, then .JOB or .PNT "
+    "(no spaces, no control characters)"
+)
+
+_NAME_TEXT = re.compile(r"[A-Za-z0-9_]*(\.[A-Za-z0-9_]*)?")
+
+
+def parse_name(text: str, name: str) -> FileName:
+    """``text`` as a FileName, refusing what the wire would silently change: the protocol's
+    parser drops spaces and NUL bytes (``"A B.JOB"`` would become ``AB.JOB``)."""
+    if not _NAME_TEXT.fullmatch(text):
+        raise UsageError(f"{name} {text!r}: {NAME_RULE}")
+    return FileName.parse(text)
+
+
 def file_name(value: object, name: str, kind: str | None = None) -> FileName:
     """A checked file name from a str or FileName; ``kind`` ("JOB"/"PNT") is added when the
     name has no extension, and required when it has one."""
     if isinstance(value, str):
-        parsed = FileName.parse(value)
+        parsed = parse_name(value, name)
     elif isinstance(value, FileName):
         parsed = value
     else:
@@ -82,6 +101,12 @@ def download_job(channel: int, name: object, progress: Progress | None) -> Plan[
     content = yield from call(DownloadFile(channel, file), progress)
     if not isinstance(content, JobFile):
         raise UsageError(f"name: {file} is not a JOB file")
+    for number, line in enumerate(content.lines, 1):
+        if not line.isascii():
+            # FA decodes bytes outside ASCII as U+FFFD: the file cannot be kept as it was.
+            raise MalformedAnswerError(
+                "FA", f"{file} line {number} holds bytes that are not ASCII: {line!r}"
+            )
     return content
 
 

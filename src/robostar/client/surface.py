@@ -14,7 +14,7 @@ from collections.abc import Callable, Mapping, Sequence
 from typing import TypeVar
 
 from robostar.client import args
-from robostar.client.backup import Manifest, backup_plan, restore_plan
+from robostar.client.backup import Manifest, RestoreDiff, backup_plan, restore_plan
 from robostar.client.binding import operation
 from robostar.client.exchange import Progress
 from robostar.client.files import download_job, download_points, file_name, point_lines, upload
@@ -430,17 +430,44 @@ class Operations:
 
     @operation
     def backup(
-        self, folder: str | os.PathLike[str], *, progress: Progress | None = None
+        self,
+        folder: str | os.PathLike[str],
+        *,
+        progress: Progress | None = None,
+        keep: int | None = None,
     ) -> Plan[Manifest]:
-        """Save every JOB and PNT file of every channel to ``folder``, with manifest.json."""
-        return (yield from backup_plan(folder, progress))
+        """Save every JOB and PNT file of every channel to ``folder``, with manifest.json
+        (swapped into place only when complete; ``keep=N``: timestamped generations)."""
+        return (yield from backup_plan(folder, progress, keep))
 
     @operation
     def restore(
-        self, folder: str | os.PathLike[str], *, progress: Progress | None = None
+        self,
+        folder: str | os.PathLike[str],
+        *,
+        progress: Progress | None = None,
+        channels: Sequence[int] | None = None,
+        only: str | None = None,
+        dry_run: bool = False,
+        confirm: Callable[[RestoreDiff], bool] | None = None,
+        delete_extra: bool = False,
+        ignore_identity: bool = False,
     ) -> Plan[Manifest]:
-        """Upload every file of a :meth:`backup`, then read each back and compare."""
-        return (yield from restore_plan(folder, progress))
+        """Upload what is new or changed from a :meth:`backup` after a preflight that writes
+        nothing on any failure, then read each back and compare (see
+        :func:`robostar.client.backup.restore_plan`)."""
+        return (
+            yield from restore_plan(
+                folder,
+                progress,
+                channels=channels,
+                only=only,
+                dry_run=dry_run,
+                confirm=confirm,
+                delete_extra=delete_extra,
+                ignore_identity=ignore_identity,
+            )
+        )
 
     # -- I/O (G) ---------------------------------------------------------------------------
     @operation
