@@ -247,6 +247,7 @@ class Line:
                 f"line {self.name} is down ({self.health.last_error or 'not connected yet'});"
                 " nothing was sent"
             )
+        command.encode()  # bad input fails here, before it waits in the queue or reaches the wire
         future: asyncio.Future[R] = asyncio.get_running_loop().create_future()
         self._queue.put_nowait(_Job(priority, next(self._seq), command, future, who))
         if priority == PRI_STOP:
