@@ -161,9 +161,8 @@ def test_stopping_fails_every_waiter_with_a_clear_error() -> None:
         server = sim_server(poll_interval=0.5)
         await server.start()
         line = server.lines["cell1"]
-        upload = asyncio.create_task(
-            line.execute(UploadFile(1, "BIG.JOB", 7, _job_lines(2000)), who=HOST, implicit_lease=True)
-        )
+        big = UploadFile(1, "BIG.JOB", 7, _job_lines(2000))
+        upload = asyncio.create_task(line.execute(big, who=HOST, implicit_lease=True))
         reads = [asyncio.create_task(line.read(ReadSpeed(1), max_age=0)) for _ in range(5)]
         await asyncio.sleep(0.02)
         async with asyncio.timeout(5):
