@@ -23,6 +23,7 @@ LAYER = {
     "commands": 3,
     "client": 4,
     "sim": 4,
+    "serving": 4,
     "cli": 5,
     "": 5,
 }
@@ -31,6 +32,12 @@ re-exports from the top): a part may import only parts of lower or equal rank.""
 
 TRANSPORT_MAY_NOT_IMPORT = frozenset(("protocol", "commands", "client", "cli"))
 """transport is a byte pipe: it knows nothing of the protocol, and the client sits above it."""
+
+SERVING_MAY_NOT_IMPORT = frozenset(("sim", "client", "cli", ""))
+"""serving is the N1 controller role for the simulator and the line server: it knows neither."""
+
+SANS_IO_SERVING = frozenset(("robostar.serving.session",))
+"""The serving session is sans-IO like the core (the hosts around it do the I/O)."""
 
 BELOW_TRANSPORT = frozenset(("errors", "types", "protocol", "commands"))
 """The sans-IO core and its roots never reach for a transport."""
@@ -112,7 +119,15 @@ def layering_violations(found: list[Import]) -> list[str]:
         where = f"{imp.module}:{imp.line} imports {imp.target}"
         if source is None or target is None or source == target:
             continue
-        if source == "transport" and target in TRANSPORT_MAY_NOT_IMPORT:
+        if source == "serving" and target in SERVING_MAY_NOT_IMPORT:
+            problems.append(f"{where}: serving knows nothing of {target or 'the facade'}")
+        elif (
+            source == "serving"
+            and target == "transport"
+            and not imp.target.startswith("robostar.transport.peer")
+        ):
+            problems.append(f"{where}: serving takes only the byte-peer interface of transport")
+        elif source == "transport" and target in TRANSPORT_MAY_NOT_IMPORT:
             problems.append(f"{where}: transport knows nothing of the protocol or the client")
         elif source in BELOW_TRANSPORT and target == "transport":
             problems.append(f"{where}: the core may not reach for a transport")
@@ -125,7 +140,7 @@ def io_violations(found: list[Import]) -> list[str]:
     return [
         f"{imp.module}:{imp.line} imports {imp.target}"
         for imp in found
-        if part_of(imp.module) in ("protocol", "commands")
+        if (part_of(imp.module) in ("protocol", "commands") or imp.module in SANS_IO_SERVING)
         and imp.target.split(".")[0] in NO_IO_MODULES
     ]
 
@@ -159,6 +174,9 @@ def test_protocol_and_commands_do_no_io() -> None:
         ("robostar.transport.tcp", "from robostar import client\n", False),
         ("robostar.protocol.link", "from robostar.transport import BytePeer\n", False),
         ("robostar.commands", "from .. import client\n", True),
+        ("robostar.serving.session", "from robostar.sim.model import Model\n", False),
+        ("robostar.serving.aio", "from robostar.transport.tcp import TcpTransport\n", False),
+        ("robostar.serving", "from robostar.client import Client\n", True),
         ("robostar.protocol.frame", "import robostar\n", False),
     ],
 )
@@ -181,6 +199,9 @@ def test_the_layering_check_catches_a_wrong_import(
         ("robostar.client.sync", "from robostar.transport import open_url\n", False),
         ("robostar.cli.main", "from robostar import __version__\n", False),
         ("robostar", "from robostar.client import Client\n", True),
+        ("robostar.sim.server", "from robostar.serving import Session\n", False),
+        ("robostar.serving.aio", "from robostar.transport.peer import BytePeer\n", False),
+        ("robostar.serving.session", "from robostar.commands import decode_request\n", False),
     ],
 )
 def test_the_layering_check_passes_a_right_import(
