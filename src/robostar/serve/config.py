@@ -34,7 +34,8 @@ class LineConfig:
     """One controller line: its name, URL and how often the poller reads what.
 
     ``poll_interval`` is for status and positions; ``slow_interval`` for speed, job, step, alarms
-    and I/O; ``history_interval`` for the alarm history (a multi-packet read).
+    and I/O; ``history_interval`` for the alarm history (a multi-packet read); ``max_age`` 0 sends
+    every read to the controller.
     """
 
     name: str
@@ -45,6 +46,8 @@ class LineConfig:
     slow_interval: float = 1.0
     history_interval: float = 10.0
     io_ports: tuple[int, ...] = (0,)
+    max_age: float | None = None
+    """How old a model value may be to answer a read (default: twice ``poll_interval``)."""
     channels: dict[int, str] = field(default_factory=dict)
     robot: str | None = None
 
@@ -62,6 +65,10 @@ class LineConfig:
             value = getattr(self, key)
             if not isinstance(value, int | float) or isinstance(value, bool) or value <= 0:
                 raise ConfigError(f"{where}.{key}: {value!r} is not a positive number of seconds")
+        if self.max_age is not None and (
+            not isinstance(self.max_age, int | float) or self.max_age < 0
+        ):
+            raise ConfigError(f"{where}.max_age: {self.max_age!r} is not 0 or more seconds")
         for port in self.io_ports:
             if not isinstance(port, int) or not 0 <= port <= 4:
                 raise ConfigError(f"{where}.io_ports: {port!r} is not a port 0-4")
@@ -109,6 +116,7 @@ _LINE_KEYS = {
     "slow_interval": float,
     "history_interval": float,
     "io_ports": list,
+    "max_age": float,
     "channels": dict,
     "robot": str,
 }

@@ -230,7 +230,9 @@ class Line:
         """Answer a read from the model when fresh enough, else from the line (and store it)."""
         if command.CHANGES_STATE:
             raise UsageError(f"{command.CODE} changes state: use execute(), with a lease holder")
-        limit = self.config.poll_interval * 2 if max_age is None else max_age
+        limit = self.config.max_age if max_age is None else max_age
+        if limit is None:
+            limit = self.config.poll_interval * 2
         cached = self._from_model(command, limit)
         if cached is not None:
             return cast(R, cached[0])
