@@ -110,27 +110,34 @@ class N1Face:
         self.addresses: dict[str, tuple[str, int]] = {}
 
     async def start(self) -> None:
-        for name, (host, port) in self.listens.items():
-            backend = LineBackend(self.server.lines[name])
-            timeout = self.server.lines[name].config.timeout
+        for name, listen in self.listens.items():
+            await self.add_line(name, listen)
 
-            def factory(
-                conn: str, backend: LineBackend = backend, timeout: float = timeout
-            ) -> Session:
-                return Session(backend, name=conn, timeout=timeout)
+    async def add_line(self, name: str, listen: tuple[str, int]) -> tuple[str, int]:
+        """Serve line ``name`` on ``listen`` (once; the address it is served on)."""
+        if name in self.addresses:
+            return self.addresses[name]
+        host, port = listen
+        backend = LineBackend(self.server.lines[name])
+        timeout = self.server.lines[name].config.timeout
 
-            n1 = AsyncHost(factory, name=f"n1 {name}")
-            self.addresses[name] = await n1.start(host, port, allow_remote=self.allow_remote)
-            warn_remote(host, self.addresses[name][1], f"the N1 face of line {name}")
-            self.hosts[name] = n1
-            self.backends[name] = backend
-            log.info("n1 face: line %s on %s:%d", name, *self.addresses[name])
+        def factory(conn: str) -> Session:
+            return Session(backend, name=conn, timeout=timeout)
+
+        n1 = AsyncHost(factory, name=f"n1 {name}")
+        self.addresses[name] = await n1.start(host, port, allow_remote=self.allow_remote)
+        warn_remote(host, self.addresses[name][1], f"the N1 face of line {name}")
+        self.hosts[name] = n1
+        self.backends[name] = backend
+        log.info("n1 face: line %s on %s:%d", name, *self.addresses[name])
+        return self.addresses[name]
 
     async def stop(self) -> None:
         for name, n1 in self.hosts.items():
             await n1.close()
             await self.backends[name].drain()
         self.hosts.clear()
+        self.addresses.clear()
 
 
 def create(server: LineServer, options: Mapping[str, Any]) -> N1Face:
