@@ -40,7 +40,7 @@ from robostar.serving import check_host, is_loopback, parse_listen
 from robostar.serving.address import warn_remote
 
 if TYPE_CHECKING:
-    from robostar.serve.faces.n1 import N1Face
+    from robostar.serve.n1serve import N1Face
     from robostar.serve.server import LineServer
 
 __all__ = ["ApiFace", "build_app", "create"]
@@ -223,7 +223,7 @@ def build_app(server: LineServer, token: str | None = None) -> Starlette:
         _, line = got
         address = api.n1_address(line.name)
         if address is None:
-            from robostar.serve.faces.n1 import N1Face
+            from robostar.serve.n1serve import N1Face
 
             face = api.own_n1
             if face is None:
