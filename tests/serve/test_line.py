@@ -143,3 +143,25 @@ def test_two_lines_in_one_server_are_independent() -> None:
             assert await b.read(ReadSpeed(1), max_age=0) == 22
 
     asyncio.run(main())
+
+
+def test_a_holder_that_goes_away_has_its_jog_stopped(tmp_path: Path) -> None:
+    from robostar.commands.motion import JogStart
+    from robostar.types import JogDirection, MotionType
+
+    audit = tmp_path / "audit.jsonl"
+
+    async def main() -> None:
+        async with sim_server(audit_path=str(audit)) as server:
+            line = server.lines["cell1"]
+            jog = JogStart(1, 1, JogDirection.PLUS, MotionType.JOINT)
+            await line.execute(jog, who=ALICE, implicit_lease=True)
+            assert line.lease.release(ALICE)
+            async with asyncio.timeout(5):  # written once the controller answered the BG
+                while "lease lost" not in audit.read_text():
+                    await asyncio.sleep(0.01)
+
+    asyncio.run(main())
+    records = [json.loads(x) for x in audit.read_text().splitlines()]
+    assert [r["what"].split("(")[0] for r in records] == ["JogStart", "JogStop"]
+    assert records[1]["outcome"] == "jog stopped: lease lost"

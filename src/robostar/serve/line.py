@@ -400,11 +400,16 @@ class Line:
         for channel, holder in list(self._jogs.items()):
             if holder == who and self._up.is_set() and not self._stopping:
                 self._jogs.pop(channel, None)
-                task = asyncio.get_running_loop().create_task(
-                    self._submit(JogStop(channel), PRI_STOP, None)
-                )
+                task = asyncio.get_running_loop().create_task(self._stop_jog(channel, who))
                 task.add_done_callback(_ignore_result)
-                self._audit(JogStop(channel), who, "jog stopped: lease lost")
+
+    async def _stop_jog(self, channel: int, who: Who) -> None:
+        try:
+            await self._submit(JogStop(channel), PRI_STOP, None)
+        except RobostarError as exc:
+            self._audit(JogStop(channel), who, f"error: lease lost, jog stop failed: {exc}")
+            raise
+        self._audit(JogStop(channel), who, "jog stopped: lease lost")
 
     def _audit(self, command: Command[Any], who: Who, outcome: str) -> None:
         self.audit.write(
