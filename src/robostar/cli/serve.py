@@ -170,7 +170,19 @@ def serve(
     log_format: str,
     verbose: bool,
 ) -> None:
-    """Own controller lines and serve them to many consumers at once (N1, API, metrics, ...)."""
+    """Own controller lines and serve them to many consumers at once (N1, API, metrics, ...).
+
+    Each line is opened once; consumers share it through the faces. Faces bind to loopback
+    unless --allow-remote (with a token). SIGTERM or Ctrl-C stops jogs and exits.
+
+    \b
+    Example:
+      robostar serve --line cell1=/dev/ttyUSB0 --n1 cell1=127.0.0.1:9101 --api 127.0.0.1:8470
+      robostar --port tcp://127.0.0.1:9101 status        # any N1 host program
+      robostar --port serve://127.0.0.1:8470/cell1 status
+      robostar serve --check serve.toml                  # validate, open nothing
+      robostar serve --config serve.toml --metrics 127.0.0.1:9464
+    """
     if check_file is not None:
         config = load_config(check_file)
         for text in _describe(config):
