@@ -165,3 +165,18 @@ def test_a_holder_that_goes_away_has_its_jog_stopped(tmp_path: Path) -> None:
     records = [json.loads(x) for x in audit.read_text().splitlines()]
     assert [r["what"].split("(")[0] for r in records] == ["JogStart", "JogStop"]
     assert records[1]["outcome"] == "jog stopped: lease lost"
+
+
+def test_a_write_wakes_the_poller_so_subscribers_see_it_at_once() -> None:
+    async def main() -> None:
+        async with sim_server(poll_interval=30.0) as server:
+            line = server.lines["cell1"]
+            await line.wait_polled()
+            with line.model.subscribe() as changes:
+                await line.execute(SetSpeed(1, 123), who=ALICE, implicit_lease=True)
+                async with asyncio.timeout(5):  # far below the 30 s poll interval
+                    async for change in changes:
+                        if change.key == "ch1/speed" and change.sample.value == 123:
+                            break
+
+    asyncio.run(main())

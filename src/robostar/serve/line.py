@@ -154,6 +154,8 @@ class Line:
         self._timeouts = 0
         self._jogs: dict[int, Who] = {}
         self._unsupported: set[str] = set()
+        self._poll_now = asyncio.Event()
+        self._written = False
         self.info: ControllerInfo | None = None
         self.lease.on_lost.append(self._lease_lost)
 
@@ -317,9 +319,9 @@ class Line:
             raise
         except RobostarError as exc:
             self._count(started, error=True)
+            await self._line_trouble(exc)  # first: the waiter then sees the line as it is
             if not job.future.done():
                 job.future.set_exception(exc)
-            await self._line_trouble(exc)
             return
         except Exception as exc:  # a bug must reach the caller, not kill the worker
             self._count(started, error=True)
@@ -333,6 +335,8 @@ class Line:
         self._count(started, error=False)
         if job.command.CHANGES_STATE:
             self.model.invalidate()
+            self._written = True
+            self._poll_now.set()  # subscribers see the effect of a write at once
         if not job.future.done():
             job.future.set_result(result)
 
@@ -457,7 +461,8 @@ class Line:
                 for ch in self.channels():
                     fast.append(ReadPosition(ch, PositionKind.XY))
                     fast.append(ReadPosition(ch, PositionKind.ANGLE))
-                if started >= next_slow:
+                if started >= next_slow or self._written:
+                    self._written = False
                     next_slow = started + self.config.slow_interval
                     fast.append(ReadAlarms())
                     for ch in self.channels():
@@ -475,8 +480,12 @@ class Line:
                 continue
             except RobostarError as exc:
                 log.debug("line %s poll: %s", self.name, exc)
+                # the values are what they were, but nobody can vouch for them now
+                self.model.mark(Quality.STALE, only=Quality.GOOD)
             delay = self.config.poll_interval - (time.monotonic() - started)
-            await asyncio.sleep(max(0.0, delay))
+            self._poll_now.clear()
+            with contextlib.suppress(TimeoutError):
+                await asyncio.wait_for(self._poll_now.wait(), max(0.0, delay))
 
     async def _poll_one(self, command: Command[Any]) -> None:
         key = model_key(command) or command.CODE

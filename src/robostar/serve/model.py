@@ -162,10 +162,10 @@ class ControllerModel:
         """A state change happened: no value read before now may answer a read."""
         self._valid_after = time.time()
 
-    def mark(self, quality: Quality) -> None:
-        """Set every value's quality (the line went down, or came back before the next poll)."""
+    def mark(self, quality: Quality, *, only: Quality | None = None) -> None:
+        """Set the quality of every value (of those of quality ``only``, when given)."""
         for key, sample in self._values.items():
-            if sample.quality is not quality:
+            if sample.quality is not quality and (only is None or sample.quality is only):
                 self._values[key] = replace(sample, quality=quality)
                 self._publish(key, self._values[key])
 
