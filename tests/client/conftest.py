@@ -150,7 +150,6 @@ class ServedLine:
 
     def __init__(self, peer: BytePeer) -> None:
         from robostar.serve import LineConfig, LineServer, ServeConfig
-        from robostar.serve.line import Line
 
         self.loop = asyncio.new_event_loop()
         self._thread = threading.Thread(target=self.loop.run_forever, daemon=True)
@@ -161,10 +160,8 @@ class ServedLine:
             lines=(LineConfig("cell", "sim://", timeout=TIMEOUT, poll_interval=3600, max_age=0),),
             faces={"n1": {"lines": {"cell": "127.0.0.1:0"}}},
         )
-        self.server = LineServer(config)
-        self.server.lines["cell"] = Line(
-            config.lines[0],
-            audit=self.server.audit,
+        self.server = LineServer(
+            config,
             client_factory=lambda lc: AsyncClient(AsyncPeerTransport(peer), timeout=lc.timeout),
         )
         asyncio.run_coroutine_threadsafe(self.server.start(), self.loop).result(30)

@@ -5,11 +5,13 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
+from collections.abc import Callable
 from types import TracebackType
 from typing import Self
 
+from robostar.client.aio import AsyncClient
 from robostar.serve.audit import AuditLog
-from robostar.serve.config import ServeConfig
+from robostar.serve.config import LineConfig, ServeConfig
 from robostar.serve.faces import Face, create_face
 from robostar.serve.line import Line
 
@@ -21,11 +23,20 @@ log = logging.getLogger("robostar.serve")
 class LineServer:
     """Owns the lines of ``config`` and runs its faces; use ``async with`` or start()/stop()."""
 
-    def __init__(self, config: ServeConfig) -> None:
+    def __init__(
+        self,
+        config: ServeConfig,
+        *,
+        client_factory: Callable[[LineConfig], AsyncClient] | None = None,
+    ) -> None:
+        """``client_factory`` makes each line's client (tests: a simulator behind a wrapper)."""
         self.config = config
         self.audit = AuditLog(config.audit_path)
         self.lines: dict[str, Line] = {
-            lc.name: Line(lc, audit=self.audit, lease_ttl=config.lease_ttl) for lc in config.lines
+            lc.name: Line(
+                lc, audit=self.audit, lease_ttl=config.lease_ttl, client_factory=client_factory
+            )
+            for lc in config.lines
         }
         self.faces: dict[str, Face] = {}
         self._started = False
