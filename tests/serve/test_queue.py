@@ -10,6 +10,7 @@ from robostar.client.aio import AsyncClient
 from robostar.commands.control import EmergencyStop, ReadSpeed, SetSpeed
 from robostar.commands.files import UploadFile
 from robostar.commands.status import ReadStatus
+from robostar.errors import OutcomeUnknownError
 from robostar.serve import AbortedByStopError, LineConfig, LineDownError, Quality, Who
 from robostar.serve.line import Line
 from robostar.sim import SimConfig, VirtualController
@@ -163,14 +164,19 @@ def test_stopping_fails_every_waiter_with_a_clear_error() -> None:
         line = server.lines["cell1"]
         big = UploadFile(1, "BIG.JOB", 7, _job_lines(2000))
         upload = asyncio.create_task(line.execute(big, who=HOST, implicit_lease=True))
+        while line._current is None or not isinstance(line._current.command, UploadFile):
+            await asyncio.sleep(0.001)
         reads = [asyncio.create_task(line.read(ReadSpeed(1), max_age=0)) for _ in range(5)]
         await asyncio.sleep(0.02)
         async with asyncio.timeout(5):
             await server.stop()
-        for task in (upload, *reads):
+        for task in reads:
             try:
                 await task
             except LineDownError as exc:
-                assert "stopping" in str(exc)
+                assert "stop" in str(exc)
+        # the upload was on the wire: its outcome is unknown, never "nothing was sent"
+        with pytest.raises(OutcomeUnknownError, match="server stopped during the exchange"):
+            await upload
 
     asyncio.run(main())

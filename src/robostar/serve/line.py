@@ -28,6 +28,7 @@ from robostar.commands.status import ReadAlarms, ReadInfo, ReadPosition, ReadSta
 from robostar.errors import (
     ControllerError,
     LineError,
+    OutcomeUnknownError,
     PortError,
     ReplyTimeoutError,
     RobostarError,
@@ -315,7 +316,12 @@ class Line:
             with contextlib.suppress(BaseException):
                 await task
             if not job.future.done():
-                job.future.set_exception(LineDownError(f"line {self.name}: the server is stopping"))
+                stopping = f"line {self.name}: the server stopped during the exchange"
+                job.future.set_exception(
+                    OutcomeUnknownError(job.command.CODE, stopping)
+                    if job.command.CHANGES_STATE
+                    else LineDownError(stopping)
+                )
             raise
         except RobostarError as exc:
             self._count(started, error=True)
