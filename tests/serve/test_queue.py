@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import re
 
 import pytest
 
@@ -41,8 +42,11 @@ def test_a_stop_preempts_a_2000_line_upload() -> None:
             await asyncio.sleep(0.02)
             await line.execute(EmergencyStop(), who=OPERATOR)  # no lease needed for a stop
             assert not upload.done() or upload.exception() is not None
-            with pytest.raises(AbortedByStopError, match="aborted by stop CF"):
+            with pytest.raises(AbortedByStopError, match="aborted by stop CF") as caught:
                 await upload
+            accepted = re.search(r"after (\d+) of 2000 lines accepted", str(caught.value))
+            assert accepted is not None, caught.value
+            assert 0 <= int(accepted.group(1)) < 2000
             status = await line.read(ReadStatus(), max_age=0)
             assert len(status) == 3
 

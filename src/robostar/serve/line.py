@@ -296,7 +296,17 @@ class Line:
         self._current = job
         self._aborted_by = None
         started = time.perf_counter()
-        task = asyncio.create_task(client.execute(job.command))
+        done: list[tuple[int, int | None]] = [(0, None)]
+
+        def progress(count: int, total: int | None) -> None:
+            done[0] = (count, total)
+
+        # a transfer reports its progress, so that a stop's victim learns how far it got
+        task = asyncio.create_task(
+            client._call(job.command, progress)
+            if isinstance(job.command, _TRANSFERS)
+            else client.execute(job.command)
+        )
         self._current_task = task
         try:
             result = await asyncio.shield(task)
@@ -304,10 +314,13 @@ class Line:
             if task.cancelled() and self._aborted_by is not None and not job.future.done():
                 # cancelled by a stop: the AsyncClient ended the exchange with RST
                 stop = self._aborted_by
+                count, total = done[0]
+                unit = "lines accepted" if isinstance(job.command, UploadFile) else "packets read"
+                of = f" of {total}" if total is not None else ""
                 job.future.set_exception(
                     AbortedByStopError(
                         f"line {self.name}: {job.command.CODE} aborted by stop {stop.CODE}"
-                        " (a partial transfer: the controller's copy is incomplete)"
+                        f" after {count}{of} {unit} (the transfer is incomplete)"
                     )
                 )
                 self._count(started, error=True)
