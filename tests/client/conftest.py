@@ -34,6 +34,7 @@ FLAVORS = ["sync", "async"]
 SPEEDUP = 200.0
 TIMEOUT = 0.5
 POLL = 0.005
+SERVE_SPEEDUP = 40.0
 
 
 def sim_config(**overrides: Any) -> SimConfig:
@@ -203,6 +204,9 @@ def robot_on(
     **options: Any,
 ) -> Iterator[Robot]:
     """A robot on ``line``; ``wrap`` puts a peer (a fault injector) between client and sim."""
+    if config is None and line == "serve":
+        # a hop more per exchange: model time slower, so a short job still runs when read back
+        config = sim_config(speedup=SERVE_SPEEDUP)
     controller = VirtualController(config or sim_config())
     peer = wrap(controller) if wrap is not None else controller
     server = serve(line, peer)
