@@ -1,4 +1,5 @@
-"""Tests of the import direction: types <- errors <- protocol <- commands <- {client, sim} <- cli.
+"""Tests of the import direction: types <- errors <- protocol <- commands <- {client, sim} <- serve
+<- cli.
 
 The imports are read with ``ast`` (nothing is imported), so the test also sees imports inside
 functions. Packages that do not exist yet (client, sim, cli, transport) are simply not checked.
@@ -24,8 +25,9 @@ LAYER = {
     "client": 4,
     "sim": 4,
     "serving": 4,
-    "cli": 5,
-    "": 5,
+    "serve": 5,
+    "cli": 6,
+    "": 6,
 }
 """Rank of each part of the package (``""`` is the package root, the public facade, which
 re-exports from the top): a part may import only parts of lower or equal rank."""
@@ -38,6 +40,9 @@ SERVING_MAY_NOT_IMPORT = frozenset(("sim", "client", "cli", ""))
 
 SANS_IO_SERVING = frozenset(("robostar.serving.session",))
 """The serving session is sans-IO like the core (the hosts around it do the I/O)."""
+
+SERVE_MAY_NOT_IMPORT = frozenset(("sim", "cli", ""))
+"""The line server owns lines by URL (sim:// included): it never imports the simulator itself."""
 
 BELOW_TRANSPORT = frozenset(("errors", "types", "protocol", "commands"))
 """The sans-IO core and its roots never reach for a transport."""
@@ -111,12 +116,22 @@ def part_of(dotted: str) -> str | None:
     return parts[1] if len(parts) > 1 else ""
 
 
+def _face(dotted: str) -> str | None:
+    """The face a module belongs to (``robostar.serve.faces.NAME...``), else None."""
+    parts = dotted.split(".")
+    return parts[3] if len(parts) > 3 and parts[:3] == ["robostar", "serve", "faces"] else None
+
+
 def layering_violations(found: list[Import]) -> list[str]:
     problems: list[str] = []
     for imp in found:
         source = part_of(imp.module)
         target = part_of(imp.target)
         where = f"{imp.module}:{imp.line} imports {imp.target}"
+        face, other = _face(imp.module), _face(imp.target)
+        if face and other and face != other:
+            problems.append(f"{where}: a face never depends on another face")
+            continue
         if source is None or target is None or source == target:
             continue
         if source == "serving" and target in SERVING_MAY_NOT_IMPORT:
@@ -127,6 +142,8 @@ def layering_violations(found: list[Import]) -> list[str]:
             and not imp.target.startswith("robostar.transport.peer")
         ):
             problems.append(f"{where}: serving takes only the byte-peer interface of transport")
+        elif source == "serve" and target in SERVE_MAY_NOT_IMPORT:
+            problems.append(f"{where}: serve knows nothing of {target or 'the facade'}")
         elif source == "transport" and target in TRANSPORT_MAY_NOT_IMPORT:
             problems.append(f"{where}: transport knows nothing of the protocol or the client")
         elif source in BELOW_TRANSPORT and target == "transport":
@@ -178,6 +195,9 @@ def test_protocol_and_commands_do_no_io() -> None:
         ("robostar.serving.aio", "from robostar.transport.tcp import TcpTransport\n", False),
         ("robostar.serving", "from robostar.client import Client\n", True),
         ("robostar.protocol.frame", "import robostar\n", False),
+        ("robostar.serve.line", "from robostar.sim import VirtualController\n", False),
+        ("robostar.serve.faces.api", "from robostar.serve.faces.n1 import N1Face\n", False),
+        ("robostar.client.sync", "from robostar.serve import LineServer\n", False),
     ],
 )
 def test_the_layering_check_catches_a_wrong_import(

@@ -67,6 +67,7 @@ SUBCOMMANDS: dict[str, str] = {
     "profiles": "robostar.cli.profilecmd:profiles",
     "teach": "robostar.cli.teach:teach",
     "shell": "robostar.cli.shell:shell",
+    "serve": "robostar.cli.serve:serve",
 }
 
 
