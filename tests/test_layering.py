@@ -1,4 +1,5 @@
-"""Tests of the import direction: types <- errors <- protocol <- commands <- {client, sim} <- cli.
+"""Tests of the import direction: types <- errors <- protocol <- commands <- {client, sim} <- serve
+<- cli.
 
 The imports are read with ``ast`` (nothing is imported), so the test also sees imports inside
 functions. Packages that do not exist yet (client, sim, cli, transport) are simply not checked.
@@ -23,14 +24,25 @@ LAYER = {
     "commands": 3,
     "client": 4,
     "sim": 4,
-    "cli": 5,
-    "": 5,
+    "serving": 4,
+    "serve": 5,
+    "cli": 6,
+    "": 6,
 }
 """Rank of each part of the package (``""`` is the package root, the public facade, which
 re-exports from the top): a part may import only parts of lower or equal rank."""
 
 TRANSPORT_MAY_NOT_IMPORT = frozenset(("protocol", "commands", "client", "cli"))
 """transport is a byte pipe: it knows nothing of the protocol, and the client sits above it."""
+
+SERVING_MAY_NOT_IMPORT = frozenset(("sim", "client", "cli", ""))
+"""serving is the N1 controller role for the simulator and the line server: it knows neither."""
+
+SANS_IO_SERVING = frozenset(("robostar.serving.session",))
+"""The serving session is sans-IO like the core (the hosts around it do the I/O)."""
+
+SERVE_MAY_NOT_IMPORT = frozenset(("sim", "cli", ""))
+"""The line server owns lines by URL (sim:// included): it never imports the simulator itself."""
 
 BELOW_TRANSPORT = frozenset(("errors", "types", "protocol", "commands"))
 """The sans-IO core and its roots never reach for a transport."""
@@ -104,15 +116,35 @@ def part_of(dotted: str) -> str | None:
     return parts[1] if len(parts) > 1 else ""
 
 
+def _face(dotted: str) -> str | None:
+    """The face a module belongs to (``robostar.serve.faces.NAME...``), else None."""
+    parts = dotted.split(".")
+    return parts[3] if len(parts) > 3 and parts[:3] == ["robostar", "serve", "faces"] else None
+
+
 def layering_violations(found: list[Import]) -> list[str]:
     problems: list[str] = []
     for imp in found:
         source = part_of(imp.module)
         target = part_of(imp.target)
         where = f"{imp.module}:{imp.line} imports {imp.target}"
+        face, other = _face(imp.module), _face(imp.target)
+        if face and other and face != other:
+            problems.append(f"{where}: a face never depends on another face")
+            continue
         if source is None or target is None or source == target:
             continue
-        if source == "transport" and target in TRANSPORT_MAY_NOT_IMPORT:
+        if source == "serving" and target in SERVING_MAY_NOT_IMPORT:
+            problems.append(f"{where}: serving knows nothing of {target or 'the facade'}")
+        elif (
+            source == "serving"
+            and target == "transport"
+            and not imp.target.startswith("robostar.transport.peer")
+        ):
+            problems.append(f"{where}: serving takes only the byte-peer interface of transport")
+        elif source == "serve" and target in SERVE_MAY_NOT_IMPORT:
+            problems.append(f"{where}: serve knows nothing of {target or 'the facade'}")
+        elif source == "transport" and target in TRANSPORT_MAY_NOT_IMPORT:
             problems.append(f"{where}: transport knows nothing of the protocol or the client")
         elif source in BELOW_TRANSPORT and target == "transport":
             problems.append(f"{where}: the core may not reach for a transport")
@@ -125,7 +157,7 @@ def io_violations(found: list[Import]) -> list[str]:
     return [
         f"{imp.module}:{imp.line} imports {imp.target}"
         for imp in found
-        if part_of(imp.module) in ("protocol", "commands")
+        if (part_of(imp.module) in ("protocol", "commands") or imp.module in SANS_IO_SERVING)
         and imp.target.split(".")[0] in NO_IO_MODULES
     ]
 
@@ -159,7 +191,13 @@ def test_protocol_and_commands_do_no_io() -> None:
         ("robostar.transport.tcp", "from robostar import client\n", False),
         ("robostar.protocol.link", "from robostar.transport import BytePeer\n", False),
         ("robostar.commands", "from .. import client\n", True),
+        ("robostar.serving.session", "from robostar.sim.model import Model\n", False),
+        ("robostar.serving.aio", "from robostar.transport.tcp import TcpTransport\n", False),
+        ("robostar.serving", "from robostar.client import Client\n", True),
         ("robostar.protocol.frame", "import robostar\n", False),
+        ("robostar.serve.line", "from robostar.sim import VirtualController\n", False),
+        ("robostar.serve.faces.api", "from robostar.serve.faces.n1 import N1Face\n", False),
+        ("robostar.client.sync", "from robostar.serve import LineServer\n", False),
     ],
 )
 def test_the_layering_check_catches_a_wrong_import(
@@ -181,6 +219,9 @@ def test_the_layering_check_catches_a_wrong_import(
         ("robostar.client.sync", "from robostar.transport import open_url\n", False),
         ("robostar.cli.main", "from robostar import __version__\n", False),
         ("robostar", "from robostar.client import Client\n", True),
+        ("robostar.sim.server", "from robostar.serving import Session\n", False),
+        ("robostar.serving.aio", "from robostar.transport.peer import BytePeer\n", False),
+        ("robostar.serving.session", "from robostar.commands import decode_request\n", False),
     ],
 )
 def test_the_layering_check_passes_a_right_import(

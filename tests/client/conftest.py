@@ -26,6 +26,7 @@ from robostar.sim.server import PeerHost, PtyServer, SimServer
 from robostar.transport import AsyncPeerTransport, BytePeer, PeerTransport
 
 LINES = ["memory", "tcp", "pty"] if os.name == "posix" else ["memory", "tcp"]
+LINES.append("serve")  # through the line server's N1 face, in front of the simulator
 FLAVORS = ["sync", "async"]
 
 # Model time runs fast so that moves and homing take milliseconds; timeouts stay short so that
@@ -109,7 +110,7 @@ class Robot:
     controller: VirtualController
     line: str
     flavor: str
-    server: PeerHost | None
+    server: PeerHost | ServedLine | None
 
     def touch(self) -> contextlib.AbstractContextManager[Any]:
         """Hold while changing the simulator from the test (its server thread also uses it)."""
@@ -120,7 +121,7 @@ def open_client(
     line: str,
     flavor: str,
     peer: BytePeer,
-    server: PeerHost | None,
+    server: PeerHost | ServedLine | None,
     **options: Any,
 ) -> Any:
     """A client of ``flavor`` ("sync"/"async") on ``line`` to ``peer`` (served by ``server``)."""
@@ -130,13 +131,62 @@ def open_client(
             return Client(PeerTransport(peer), **options)
         return AsyncBridge(lambda: AsyncClient(AsyncPeerTransport(peer), **options))
     assert server is not None
+    if isinstance(server, ServedLine):
+        url = server.url
+        if flavor == "sync":
+            return Client(url, **options)
+        return AsyncBridge(lambda: AsyncClient(url, **options))
     port = server.url if isinstance(server, SimServer) else server.device_path  # type: ignore[attr-defined]
     if flavor == "sync":
         return Client(port, **options)
     return AsyncBridge(lambda: AsyncClient(port, **options))
 
 
-def serve(line: str, peer: BytePeer) -> PeerHost | None:
+class ServedLine:
+    """A line server (its own event loop in a thread) serving ``peer`` on its N1 face."""
+
+    lock = threading.Lock()
+    failure: BaseException | None = None
+
+    def __init__(self, peer: BytePeer) -> None:
+        from robostar.serve import LineConfig, LineServer, ServeConfig
+
+        self.loop = asyncio.new_event_loop()
+        self._thread = threading.Thread(target=self.loop.run_forever, daemon=True)
+        self._thread.start()
+        config = ServeConfig(
+            # One poll at start, and every read sent on: the contract counts the simulator's
+            # requests and changes it behind the client's back (the model is tested in serve/).
+            lines=(LineConfig("cell", "sim://", timeout=TIMEOUT, poll_interval=3600, max_age=0),),
+            faces={"n1": {"lines": {"cell": "127.0.0.1:0"}}},
+        )
+        self.server = LineServer(
+            config,
+            client_factory=lambda lc: AsyncClient(AsyncPeerTransport(peer), timeout=lc.timeout),
+        )
+        asyncio.run_coroutine_threadsafe(self.server.start(), self.loop).result(30)
+        line = self.server.lines["cell"]
+
+        async def first_poll() -> None:
+            while line.health.last_poll is None:
+                await asyncio.sleep(0.005)
+
+        asyncio.run_coroutine_threadsafe(first_poll(), self.loop).result(30)
+        host, port = self.server.faces["n1"].addresses["cell"]  # type: ignore[attr-defined]
+        self.url = f"tcp://{host}:{port}"
+
+    def close(self) -> None:
+        try:
+            asyncio.run_coroutine_threadsafe(self.server.stop(), self.loop).result(30)
+        finally:
+            self.loop.call_soon_threadsafe(self.loop.stop)
+            self._thread.join(5)
+            self.loop.close()
+
+
+def serve(line: str, peer: BytePeer) -> PeerHost | ServedLine | None:
+    if line == "serve":
+        return ServedLine(peer)
     if line == "tcp":
         return SimServer(peer).start()
     if line == "pty":

@@ -35,6 +35,7 @@ from robostar.protocol.link import (
     RequestReceived,
 )
 from robostar.protocol.packets import Shape
+from robostar.serving import Session
 from robostar.sim import SimConfig, VirtualController
 from robostar.sim.faults import FaultInjector, FaultKind, parse_fault
 from robostar.sim.pacing import PacedPeer
@@ -42,7 +43,7 @@ from robostar.sim.server import (
     PeerHost,
     PtyServer,
     SimServer,
-    build_peer,
+    build_lines,
     parse_listen,
     serve,
 )
@@ -488,7 +489,7 @@ def test_serve_with_line_timing_still_answers() -> None:
 
 
 def test_serve_stacks_line_timing_outside_the_faults() -> None:
-    peer = build_peer(
+    lines = build_lines(
         SimConfig(seed=5),
         1,
         store=None,
@@ -496,11 +497,13 @@ def test_serve_stacks_line_timing_outside_the_faults() -> None:
         baud=9600,
         turnaround=0.002,
     )
+    peer = lines.open_session("test")
     assert isinstance(peer, PacedPeer)
     assert (peer.baud, peer.turnaround) == (9600, 0.002)
     assert isinstance(peer.peer, FaultInjector)
     assert peer.peer.seed == 6
-    assert isinstance(peer.peer.peer, VirtualController)
+    assert isinstance(peer.peer.peer, Session)
+    assert peer.peer.peer.backend is lines.controller
 
 
 @pytest.mark.parametrize(

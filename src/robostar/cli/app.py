@@ -55,6 +55,7 @@ SUBCOMMANDS: dict[str, str] = {
     "sim": "robostar.cli.simcmd:sim",
     "sim-input": "robostar.cli.simcmd:sim_input",
     "demo": "robostar.cli.demo:demo",
+    "serve": "robostar.cli.serve:serve",
 }
 
 

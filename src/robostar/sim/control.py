@@ -8,11 +8,15 @@ controllers over their own endpoints::
     alarm CODE [CHANNEL] [CTRL]          raise an alarm (CHANNEL 1-3, default all)
 
 Each line is answered ``ok`` or ``error: <why>``. Every change is made holding the controller
-host's lock, as the hosts' own threads do.
+host's lock, as the hosts' own threads do. Only what the simulator defines is taken (the alarm
+codes of its table, existing ports, contacts, channels and controllers), so a command can never
+leave the state unreadable. A line longer than :data:`MAX_LINE` bytes and connections past
+:data:`MAX_CONNECTIONS` are refused with ``error: ...`` and the connection closed.
 """
 
 from __future__ import annotations
 
+import contextlib
 import socket
 import socketserver
 import threading
@@ -20,18 +24,32 @@ from collections.abc import Sequence
 from typing import Any
 
 from robostar.errors import UsageError
-from robostar.sim.alarms import ALL_CHANNELS
-from robostar.sim.server import PeerHost
+from robostar.serving.threaded import PeerHost
+from robostar.sim.alarms import ALL_CHANNELS, AlarmCode
 
-__all__ = ["ControlServer", "send_control"]
+__all__ = ["MAX_CONNECTIONS", "MAX_LINE", "ControlServer", "send_control"]
+
+MAX_LINE = 256
+"""Longest command line taken, in bytes (the longest valid one is a few dozen)."""
+MAX_CONNECTIONS = 8
+"""Control connections served at once (one thread each)."""
+_ALARM_CODES = ", ".join(str(int(code)) for code in AlarmCode)
 
 
 def _controller_of(host: PeerHost) -> Any:
     """The VirtualController inside a host's peer (under any fault or pacing wrappers)."""
     peer: Any = host.peer
+    if hasattr(peer, "controller"):
+        return peer.controller
     while not hasattr(peer, "model"):
         peer = peer.peer
     return peer
+
+
+def _number(what: str, word: str) -> int:
+    if not word.isascii() or not word.isdigit() or len(word) > 6:
+        raise UsageError(f"{what} {word!r} is not a whole number")
+    return int(word)
 
 
 def _switch(word: str) -> bool:
@@ -54,7 +72,13 @@ class ControlServer:
 
         class _Handler(socketserver.StreamRequestHandler):
             def handle(self) -> None:
-                for raw in self.rfile:
+                while True:
+                    raw = self.rfile.readline(MAX_LINE + 1)
+                    if not raw:
+                        return
+                    if len(raw) > MAX_LINE and not raw.endswith(b"\n"):
+                        self.wfile.write(f"error: line longer than {MAX_LINE} bytes\n".encode())
+                        return
                     line = raw.decode("utf-8", "replace").strip()
                     if line:
                         self.wfile.write((owner.execute(line) + "\n").encode())
@@ -62,6 +86,33 @@ class ControlServer:
         class _Server(socketserver.ThreadingTCPServer):
             daemon_threads = True
             allow_reuse_address = True
+            block_on_close = False
+
+            def __init__(self, *args: Any) -> None:
+                super().__init__(*args)
+                self.active = 0
+                self.count_lock = threading.Lock()
+
+            def process_request(self, request: Any, client_address: Any) -> None:
+                with self.count_lock:
+                    full = self.active >= MAX_CONNECTIONS
+                    if not full:
+                        self.active += 1
+                if full:
+                    with contextlib.suppress(OSError):
+                        request.sendall(
+                            f"error: already {MAX_CONNECTIONS} control connections\n".encode()
+                        )
+                    self.shutdown_request(request)
+                    return
+                super().process_request(request, client_address)
+
+            def process_request_thread(self, request: Any, client_address: Any) -> None:
+                try:
+                    super().process_request_thread(request, client_address)
+                finally:
+                    with self.count_lock:
+                        self.active -= 1
 
         self._server = _Server((host, port), _Handler)
         self.address: tuple[str, int] = self._server.server_address[:2]  # type: ignore[assignment]
@@ -91,9 +142,13 @@ class ControlServer:
         """Carry out one command line; the answer line (``ok`` or ``error: ...``)."""
         try:
             words = line.split()
+            if not words:
+                raise UsageError("empty line")
             verb, args = words[0].lower(), words[1:]
             if verb == "input" and len(args) in (3, 4):
-                port, contact, on = int(args[0]), int(args[1]), _switch(args[2])
+                port = _number("port", args[0])
+                contact = _number("contact", args[1])
+                on = _switch(args[2])
                 host = self._host(args[3:])
                 with host.lock:
                     model = _controller_of(host).model
@@ -105,23 +160,29 @@ class ControlServer:
                 host.wake()
                 return "ok"
             if verb == "alarm" and 1 <= len(args) <= 3:
-                code = int(args[0])
-                channel = int(args[1]) if len(args) > 1 else ALL_CHANNELS
-                if channel not in (1, 2, 3, ALL_CHANNELS):
-                    raise UsageError(f"channel {channel} is not 1-3 (or 9 for all)")
+                code = _number("alarm code", args[0])
+                if code not in set(AlarmCode):
+                    raise UsageError(f"alarm code {code} is not one of {_ALARM_CODES}")
+                channel = _number("channel", args[1]) if len(args) > 1 else ALL_CHANNELS
                 host = self._host(args[2:])
                 with host.lock:
-                    _controller_of(host).model.raise_alarm(code, channel)
+                    model = _controller_of(host).model
+                    channels = len(model.channels)
+                    if channel != ALL_CHANNELS and not 1 <= channel <= channels:
+                        raise UsageError(
+                            f"channel {channel} is not 1..{channels} (or {ALL_CHANNELS} for all)"
+                        )
+                    model.raise_alarm(code, channel)
                 host.wake()
                 return "ok"
             raise UsageError(
                 "expected 'input PORT CONTACT on|off [CTRL]' or 'alarm CODE [CHANNEL] [CTRL]'"
             )
-        except (UsageError, ValueError, IndexError) as error:
+        except UsageError as error:
             return f"error: {error}"
 
     def _host(self, rest: Sequence[str]) -> PeerHost:
-        index = int(rest[0]) if rest else 1
+        index = _number("controller", rest[0]) if rest else 1
         if not 1 <= index <= len(self.hosts):
             raise UsageError(f"controller {index} is not 1..{len(self.hosts)}")
         return self.hosts[index - 1]

@@ -22,6 +22,7 @@ from robostar.sim.ops_data import DataOps
 from robostar.sim.ops_files import FileOps
 from robostar.sim.ops_jobs import JobOps
 from robostar.sim.parameters import public_parameters
+from robostar.sim.snapshot import check_snapshot
 from robostar.sim.state import Refused, Timer
 from robostar.types import (
     ArmForm,
@@ -68,6 +69,7 @@ class Model(JobOps, FileOps, DataOps):
         if not isinstance(data, dict) or data.get("format") != SNAPSHOT_FORMAT:
             found = data.get("format") if isinstance(data, dict) else type(data).__name__
             raise UsageError(f"state snapshot: format {found!r} is not {SNAPSHOT_FORMAT}")
+        check_snapshot(data)
         fresh = Model(self.config)
         try:
             fresh._restore(data)

@@ -51,6 +51,9 @@ class _Burst:
 class PacedPeer:
     """A byte peer that gives ``peer`` the timing of a serial line at ``baud``."""
 
+    paced = True
+    """Hosts sleep with microsecond timeouts for a paced peer."""
+
     def __init__(self, peer: BytePeer, *, baud: int = 115200, turnaround: float = 0.0) -> None:
         if isinstance(baud, bool) or not isinstance(baud, int) or baud <= 0:
             raise UsageError(f"baud: {baud!r} is not a positive whole number of bits per second")

@@ -24,6 +24,10 @@ _TEMP_PREFIX = ".state-"
 _TEMP_SUFFIX = ".tmp"
 
 
+def _refuse_constant(name: str) -> Any:
+    raise UsageError(f"state file: {name} is not a number a snapshot may hold (JSON has none)")
+
+
 class StateStore:
     """Loads and saves the controller's snapshot (a JSON object) in ``directory``."""
 
@@ -41,8 +45,13 @@ class StateStore:
             text = self.path.read_text(encoding="utf-8")
         except FileNotFoundError:
             return None
+        except UnicodeDecodeError as exc:
+            raise UsageError(
+                f"state directory: {str(self.path)!r} is not UTF-8 text (byte {exc.start}); "
+                "fix it or remove it to start afresh"
+            ) from None
         try:
-            snapshot = json.loads(text)
+            snapshot = json.loads(text, parse_constant=_refuse_constant)
         except json.JSONDecodeError as exc:
             raise UsageError(
                 f"state directory: {str(self.path)!r} is not valid JSON ({exc}); "

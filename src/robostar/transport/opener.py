@@ -13,9 +13,11 @@ from robostar.transport.base import AsyncTransport, Transport
 from robostar.transport.inproc import AsyncPeerTransport, PeerTransport
 from robostar.transport.peer import BytePeer
 from robostar.transport.serial_port import SerialTransport
+from robostar.transport.serve import AsyncServeTransport, ServeTransport
 from robostar.transport.tcp import TcpTransport
 from robostar.transport.url import (
     SERIAL_OPTIONS,
+    SERVE_OPTIONS,
     TCP_OPTIONS,
     Endpoint,
     Kind,
@@ -41,6 +43,12 @@ def _sim_peer(endpoint: Endpoint) -> BytePeer:
     return VirtualController(SimConfig.from_query(query))
 
 
+def _serve_options(endpoint: Endpoint) -> tuple[str, dict[str, Any]]:
+    options = dict(endpoint.options)
+    line = str(options.pop("line"))
+    return line, coerce_options(endpoint.url, options, SERVE_OPTIONS)
+
+
 def transport_for_url(url: str, **options: Any) -> Transport:
     """A closed :class:`Transport` for ``url``; ``options`` override the URL's query.
 
@@ -51,6 +59,9 @@ def transport_for_url(url: str, **options: Any) -> Transport:
     endpoint = parse_url(url, options)
     if endpoint.kind is Kind.SIM:
         return PeerTransport(_sim_peer(endpoint), url=url)
+    if endpoint.kind is Kind.SERVE:
+        line, serve = _serve_options(endpoint)
+        return ServeTransport(endpoint.target, endpoint.port, line, url=url, **serve)
     if endpoint.kind is Kind.TCP:
         tcp = coerce_options(url, endpoint.options, TCP_OPTIONS)
         return TcpTransport(endpoint.target, endpoint.port, url=url, **tcp)
@@ -67,6 +78,9 @@ def async_transport_for_url(url: str, **options: Any) -> AsyncTransport:
     endpoint = parse_url(url, options)
     if endpoint.kind is Kind.SIM:
         return AsyncPeerTransport(_sim_peer(endpoint), url=url)
+    if endpoint.kind is Kind.SERVE:
+        line, serve = _serve_options(endpoint)
+        return AsyncServeTransport(endpoint.target, endpoint.port, line, url=url, **serve)
     if endpoint.kind is Kind.TCP:
         tcp = coerce_options(url, endpoint.options, TCP_OPTIONS)
         return AsyncTcpTransport(endpoint.target, endpoint.port, url=url, **tcp)

@@ -7,6 +7,7 @@ Accepted forms::
     tcp://192.0.2.10:20000                 a TCP socket (a serial-to-Ethernet gateway)
     socket://  rfc2217://  loop://         pyserial's own URL handlers
     sim://?channels=2&robot=scara          the built-in simulator, in this process
+    serve://127.0.0.1:8470/cell1           a line of a robostar serve process (its local API)
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ __all__ = [
     "DEFAULT_BAUDRATE",
     "DEFAULT_TCP_PORT",
     "SERIAL_OPTIONS",
+    "SERVE_OPTIONS",
     "TCP_OPTIONS",
     "Endpoint",
     "Kind",
@@ -43,6 +45,7 @@ class Kind(enum.Enum):
     PYSERIAL_URL = "pyserial"
     TCP = "tcp"
     SIM = "sim"
+    SERVE = "serve"
 
 
 @dataclass(frozen=True)
@@ -105,6 +108,10 @@ SERIAL_OPTIONS: dict[str, Callable[[object], object]] = {
 """Options of a serial device, with their converters."""
 
 TCP_OPTIONS: dict[str, Callable[[object], object]] = {"connect_timeout": _positive_float}
+SERVE_OPTIONS: dict[str, Callable[[object], object]] = {
+    "connect_timeout": _positive_float,
+    "token": str,
+}
 
 
 def coerce_options(
@@ -148,6 +155,19 @@ def parse_url(url: str, options: Mapping[str, object] | None = None) -> Endpoint
             raise UsageError(f"url {url!r}: tcp:// needs a host, e.g. tcp://192.0.2.10:20000")
         merged = {**dict(parse_qsl(parts.query)), **extra}
         return Endpoint(url, Kind.TCP, parts.hostname, port, merged)
+    if scheme == "serve":
+        parts = urlsplit(url)
+        try:
+            port = parts.port or 8470
+        except ValueError:
+            raise UsageError(f"url {url!r}: the port is not a number 1-65535") from None
+        line = parts.path.strip("/")
+        if not parts.hostname or not line:
+            raise UsageError(
+                f"url {url!r}: serve:// needs HOST:PORT/LINE, e.g. serve://127.0.0.1:8470/cell1"
+            )
+        merged = {**dict(parse_qsl(parts.query)), **extra}
+        return Endpoint(url, Kind.SERVE, parts.hostname, port, {"line": line, **merged})
     if scheme == "sim":
         _, _, query = rest.partition("?")
         merged = {**dict(parse_qsl(query, keep_blank_values=True)), **extra}
@@ -156,5 +176,6 @@ def parse_url(url: str, options: Mapping[str, object] | None = None) -> Endpoint
         return Endpoint(url, Kind.PYSERIAL_URL, url, options=extra)
     raise UsageError(
         f"url {url!r}: unknown scheme {scheme!r}; use a device path, serial://, tcp://, sim://,"
+        " serve://,"
         " or a pyserial URL (socket://, rfc2217://, loop://)"
     )

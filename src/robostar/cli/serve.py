@@ -1,0 +1,208 @@
+"""``robostar serve``: own the controllers' lines and serve them through the configured faces."""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import logging
+import os
+import signal
+import sys
+import time
+from typing import Any
+
+import click
+
+from robostar.errors import UsageError
+from robostar.serve.config import (
+    ConfigError,
+    LineConfig,
+    ServeConfig,
+    config_from_mapping,
+    load_config,
+    parse_line_arg,
+)
+
+__all__ = ["serve"]
+
+log = logging.getLogger("robostar.serve")
+
+
+class _JsonLines(logging.Formatter):
+    """One JSON object per log record: easy to grep, easy for journald and log shippers."""
+
+    def format(self, record: logging.LogRecord) -> str:
+        entry: dict[str, Any] = {
+            "at": round(record.created, 3),
+            "level": record.levelname.lower(),
+            "logger": record.name,
+            "msg": record.getMessage(),
+        }
+        if record.exc_info:
+            entry["error"] = self.formatException(record.exc_info)
+        return json.dumps(entry, ensure_ascii=False)
+
+
+def _pair(option: str, text: str) -> tuple[str, str]:
+    name, sep, value = text.partition("=")
+    if not sep or not name or not value:
+        raise ConfigError(f"{option} {text!r}: expected NAME=HOST:PORT")
+    return name, value
+
+
+def build_config(
+    config_file: str | None,
+    lines: tuple[str, ...],
+    n1: tuple[str, ...],
+    faces: dict[str, str | None],
+    allow_remote: bool,
+    token: str | None,
+    audit: str | None,
+) -> ServeConfig:
+    """The file's configuration (if any) with the command line's lines and faces on top."""
+    base = load_config(config_file) if config_file else config_from_mapping({})
+    all_lines: dict[str, LineConfig] = {lc.name: lc for lc in base.lines}
+    for text in lines:
+        lc = parse_line_arg(text)
+        all_lines[lc.name] = lc
+    sections = {name: dict(options) for name, options in base.faces.items()}
+    if n1:
+        n1_lines = dict(sections.get("n1", {}).get("lines", {}))
+        n1_lines.update(_pair("--n1", text) for text in n1)
+        sections.setdefault("n1", {})["lines"] = n1_lines
+    for name, value in faces.items():
+        if value is not None:
+            key = "url" if name == "mqtt" else "listen"
+            sections.setdefault(name, {})[key] = value
+    for options in sections.values():
+        if allow_remote:
+            options["allow_remote"] = True
+        if token is not None:
+            options["token"] = token
+    if not all_lines:
+        raise ConfigError("lines: none given (--line NAME=URL or [lines.NAME] in --config)")
+    return ServeConfig(
+        lines=tuple(all_lines.values()),
+        faces=sections,
+        audit_path=audit or base.audit_path,
+        lease_ttl=base.lease_ttl,
+    )
+
+
+def _describe(config: ServeConfig) -> list[str]:
+    out = [f"line {lc.name}: {lc.url} (poll every {lc.poll_interval:g} s)" for lc in config.lines]
+    for name, options in config.faces.items():
+        where = options.get("listen") or options.get("url") or options.get("lines")
+        out.append(f"face {name}: {where}")
+    if config.audit_path:
+        out.append(f"audit log: {config.audit_path}")
+    return out
+
+
+async def _run(config: ServeConfig) -> None:
+    from robostar.serve.server import LineServer
+
+    stop = asyncio.Event()
+    loop = asyncio.get_running_loop()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        loop.add_signal_handler(sig, stop.set)
+    server = LineServer(config)
+    await server.start()
+    try:
+        for name, line in server.lines.items():
+            state = "up" if line.up else f"DOWN ({line.health.last_error})"
+            log.info("line %s %s", name, state)
+        for name, face in server.faces.items():
+            addresses = getattr(face, "addresses", None) or getattr(face, "address", None)
+            click.echo(f"serving {name}: {addresses}", err=True)
+        click.echo("ready; Ctrl-C or SIGTERM stops", err=True)
+        await stop.wait()
+        log.info("stopping: jogs are stopped, queued requests fail")
+        started = time.monotonic()
+    finally:
+        await asyncio.wait_for(server.stop(), 10)
+    log.info("stopped in %.2f s", time.monotonic() - started)
+
+
+@click.command()
+@click.option(
+    "--line", "lines", multiple=True, metavar="NAME=URL", help="A line to own (repeatable)."
+)
+@click.option("--config", "config_file", type=click.Path(dir_okay=False), help="A TOML file.")
+@click.option(
+    "--check",
+    "check_file",
+    type=click.Path(dir_okay=False),
+    metavar="CONFIG",
+    help="Validate CONFIG without opening any line, and exit.",
+)
+@click.option("--n1", multiple=True, metavar="NAME=HOST:PORT", help="Serve line NAME as an N1.")
+@click.option("--api", metavar="HOST:PORT", help="The local JSON API.")
+@click.option("--metrics", metavar="HOST:PORT", help="Prometheus metrics at /metrics.")
+@click.option("--mqtt", metavar="URL", help="Publish to an MQTT broker.")
+@click.option("--opcua", metavar="HOST:PORT", help="Serve OPC UA.")
+@click.option("--web", metavar="HOST:PORT", help="Serve the web dashboard.")
+@click.option("--audit", metavar="FILE", help="Append every state change to FILE (JSONL).")
+@click.option("--allow-remote", is_flag=True, help="Allow binding beyond loopback (needs --token).")
+@click.option(
+    "--token",
+    envvar="ROBOSTAR_SERVE_TOKEN",
+    metavar="TOKEN",
+    help="Token remote consumers must present (or ROBOSTAR_SERVE_TOKEN).",
+)
+@click.option(
+    "--log-format", type=click.Choice(["json", "text"]), default="json", show_default=True
+)
+@click.option("-v", "--verbose", is_flag=True, help="Log debug detail.")
+def serve(
+    lines: tuple[str, ...],
+    config_file: str | None,
+    check_file: str | None,
+    n1: tuple[str, ...],
+    api: str | None,
+    metrics: str | None,
+    mqtt: str | None,
+    opcua: str | None,
+    web: str | None,
+    audit: str | None,
+    allow_remote: bool,
+    token: str | None,
+    log_format: str,
+    verbose: bool,
+) -> None:
+    """Own controller lines and serve them to many consumers at once (N1, API, metrics, ...).
+
+    Each line is opened once; consumers share it through the faces. Faces bind to loopback
+    unless --allow-remote (with a token). SIGTERM or Ctrl-C stops jogs and exits.
+
+    \b
+    Example:
+      robostar serve --line cell1=/dev/ttyUSB0 --n1 cell1=127.0.0.1:9101 --api 127.0.0.1:8470
+      robostar --port tcp://127.0.0.1:9101 status        # any N1 host program
+      robostar --port serve://127.0.0.1:8470/cell1 status
+      robostar serve --check serve.toml                  # validate, open nothing
+      robostar serve --config serve.toml --metrics 127.0.0.1:9464
+    """
+    if check_file is not None:
+        config = load_config(check_file)
+        for text in _describe(config):
+            click.echo(text)
+        click.echo(f"{check_file}: OK ({len(config.lines)} lines)")
+        return
+    if allow_remote and not token:
+        raise UsageError("--allow-remote needs --token (or ROBOSTAR_SERVE_TOKEN)")
+    faces = {"api": api, "metrics": metrics, "mqtt": mqtt, "opcua": opcua, "web": web}
+    config = build_config(config_file, lines, n1, faces, allow_remote, token, audit)
+    handler = logging.StreamHandler(sys.stderr)
+    if log_format == "json":
+        handler.setFormatter(_JsonLines())
+    else:
+        handler.setFormatter(logging.Formatter("%(asctime)s %(levelname)s %(name)s: %(message)s"))
+    root = logging.getLogger("robostar")
+    root.addHandler(handler)
+    root.setLevel(logging.DEBUG if verbose else logging.INFO)
+    for text in _describe(config):
+        click.echo(text, err=True)
+    if os.name != "posix":
+        raise UsageError("robostar serve runs on POSIX systems (signal handling)")
+    asyncio.run(_run(config))

@@ -1,0 +1,192 @@
+"""The line server's configuration: TOML or command line -> one validated :class:`ServeConfig`."""
+
+from __future__ import annotations
+
+import re
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from robostar.errors import UsageError
+
+__all__ = [
+    "FACE_NAMES",
+    "ConfigError",
+    "LineConfig",
+    "ServeConfig",
+    "config_from_mapping",
+    "load_config",
+    "parse_line_arg",
+]
+
+FACE_NAMES = frozenset(("n1", "api", "mqtt", "opcua", "web", "metrics"))
+_NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_-]{0,31}$")
+
+
+class ConfigError(UsageError):
+    """The configuration is wrong; the message starts with the key at fault."""
+
+
+@dataclass(frozen=True)
+class LineConfig:
+    """One controller line: its name, URL and how often the poller reads what.
+
+    ``poll_interval`` is for status and positions; ``slow_interval`` for speed, job, step, alarms
+    and I/O; ``history_interval`` for the alarm history (a multi-packet read); ``max_age`` 0 sends
+    every read to the controller.
+    """
+
+    name: str
+    url: str
+    baudrate: int | None = None
+    timeout: float = 2.0
+    poll_interval: float = 0.2
+    slow_interval: float = 1.0
+    history_interval: float = 10.0
+    io_ports: tuple[int, ...] = (0,)
+    max_age: float | None = None
+    """How old a model value may be to answer a read (default: twice ``poll_interval``)."""
+    channels: dict[int, str] = field(default_factory=dict)
+    robot: str | None = None
+
+    def __post_init__(self) -> None:
+        where = f"lines.{self.name}"
+        if not _NAME.match(self.name):
+            raise ConfigError(
+                f"lines.{self.name!r}: a line name is a letter then letters, digits, _ or -"
+            )
+        if not self.url:
+            raise ConfigError(f"{where}.url: missing")
+        if self.baudrate is not None and self.baudrate <= 0:
+            raise ConfigError(f"{where}.baudrate: {self.baudrate} is not a positive number")
+        for key in ("timeout", "poll_interval", "slow_interval", "history_interval"):
+            value = getattr(self, key)
+            if not isinstance(value, int | float) or isinstance(value, bool) or value <= 0:
+                raise ConfigError(f"{where}.{key}: {value!r} is not a positive number of seconds")
+        if self.max_age is not None and (
+            not isinstance(self.max_age, int | float) or self.max_age < 0
+        ):
+            raise ConfigError(f"{where}.max_age: {self.max_age!r} is not 0 or more seconds")
+        for port in self.io_ports:
+            if not isinstance(port, int) or not 0 <= port <= 4:
+                raise ConfigError(f"{where}.io_ports: {port!r} is not a port 0-4")
+        for number in self.channels:
+            if not isinstance(number, int) or not 1 <= number <= 3:
+                raise ConfigError(f"{where}.channels: {number!r} is not a channel 1-3")
+
+
+@dataclass(frozen=True)
+class ServeConfig:
+    """Every line and the raw sections of the faces (``faces["mqtt"]`` is the ``[mqtt]`` table)."""
+
+    lines: tuple[LineConfig, ...]
+    faces: dict[str, dict[str, Any]] = field(default_factory=dict)
+    audit_path: str | None = None
+    lease_ttl: float = 30.0
+
+    def __post_init__(self) -> None:
+        seen: set[str] = set()
+        for line in self.lines:
+            if line.name in seen:
+                raise ConfigError(f"lines.{line.name}: defined twice")
+            seen.add(line.name)
+        for name in self.faces:
+            if name not in FACE_NAMES:
+                known = ", ".join(sorted(FACE_NAMES))
+                raise ConfigError(f"{name}: unknown section (faces: {known})")
+        if self.lease_ttl <= 0:
+            raise ConfigError(f"lease_ttl: {self.lease_ttl!r} is not a positive number of seconds")
+
+
+def parse_line_arg(text: str) -> LineConfig:
+    """``NAME=URL`` (the ``--line`` option) -> a :class:`LineConfig` with the defaults."""
+    name, sep, url = text.partition("=")
+    if not sep or not name or not url:
+        raise ConfigError(f"--line {text!r}: expected NAME=URL, e.g. cell1=/dev/ttyUSB0")
+    return LineConfig(name=name, url=url)
+
+
+_LINE_KEYS = {
+    "url": str,
+    "baudrate": int,
+    "timeout": float,
+    "poll_interval": float,
+    "slow_interval": float,
+    "history_interval": float,
+    "io_ports": list,
+    "max_age": float,
+    "channels": dict,
+    "robot": str,
+}
+
+
+def _line(name: str, table: Any) -> LineConfig:
+    where = f"lines.{name}"
+    if not isinstance(table, Mapping):
+        raise ConfigError(f"{where}: expected a table with at least url = ...")
+    kwargs: dict[str, Any] = {}
+    for key, value in table.items():
+        kind = _LINE_KEYS.get(key)
+        if kind is None:
+            raise ConfigError(f"{where}.{key}: unknown key (known: {', '.join(_LINE_KEYS)})")
+        if kind is float and isinstance(value, int) and not isinstance(value, bool):
+            value = float(value)
+        if not isinstance(value, kind) or isinstance(value, bool):
+            raise ConfigError(f"{where}.{key}: {value!r} is not a {kind.__name__}")
+        kwargs[key] = value
+    if "url" not in kwargs:
+        raise ConfigError(f"{where}.url: missing")
+    if "io_ports" in kwargs:
+        kwargs["io_ports"] = tuple(kwargs["io_ports"])
+    if "channels" in kwargs:
+        channels: dict[int, str] = {}
+        for number, label in kwargs["channels"].items():
+            if not str(number).isdigit():
+                raise ConfigError(f"{where}.channels.{number}: not a channel number 1-3")
+            channels[int(number)] = str(label)
+        kwargs["channels"] = channels
+    return LineConfig(name=name, **kwargs)
+
+
+def config_from_mapping(data: Mapping[str, Any]) -> ServeConfig:
+    """Validate parsed TOML: ``[lines.NAME]`` tables, face sections, audit_path, lease_ttl."""
+    lines_table = data.get("lines", {})
+    if not isinstance(lines_table, Mapping):
+        raise ConfigError("lines: expected tables [lines.NAME]")
+    lines = tuple(_line(str(name), table) for name, table in lines_table.items())
+    faces: dict[str, dict[str, Any]] = {}
+    audit_path: str | None = None
+    lease_ttl = 30.0
+    for key, value in data.items():
+        if key == "lines":
+            continue
+        if key == "audit_path":
+            if not isinstance(value, str):
+                raise ConfigError(f"audit_path: {value!r} is not a path")
+            audit_path = value
+        elif key == "lease_ttl":
+            if not isinstance(value, int | float) or isinstance(value, bool):
+                raise ConfigError(f"lease_ttl: {value!r} is not a number of seconds")
+            lease_ttl = float(value)
+        elif key in FACE_NAMES:
+            if not isinstance(value, Mapping):
+                raise ConfigError(f"{key}: expected a table [{key}]")
+            faces[key] = dict(value)
+        else:
+            raise ConfigError(f"{key}: unknown key")
+    return ServeConfig(lines=lines, faces=faces, audit_path=audit_path, lease_ttl=lease_ttl)
+
+
+def load_config(path: str | Path) -> ServeConfig:
+    """Read and validate a TOML file; :class:`ConfigError` names the key at fault."""
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except OSError as exc:
+        raise ConfigError(f"{path}: cannot read ({exc.strerror})") from exc
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{path}: not valid TOML ({exc})") from exc
+    return config_from_mapping(data)

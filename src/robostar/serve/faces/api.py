@@ -1,0 +1,330 @@
+"""The local API face: JSON over HTTP and an SSE stream of model changes (Starlette + uvicorn).
+
+Routes (``{line}`` is a line name)::
+
+    GET    /lines                      every line: health, lease holder, N1 address
+    GET    /lines/{line}               the line's model (every key: value, at, age, quality)
+    GET    /lines/{line}/model/{key}   one key
+    GET    /lines/{line}/events        Server-Sent Events, one ``change`` event per model change
+    POST   /lines/{line}/commands      {"command": "SetSpeed", "args": {...}} or {"hex": "ff4141"}
+    POST   /lines/{line}/lease         take or renew the lease; DELETE gives it up
+    GET    /lines/{line}/n1            the line's N1 address (started on loopback on demand;
+                                       what ``serve://HOST:PORT/LINE`` connects to)
+
+The consumer names itself in the ``X-Robostar-Who`` header. A token, when configured (required
+off loopback), goes in ``Authorization: Bearer TOKEN``.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import hmac
+import json
+import logging
+from collections.abc import AsyncIterator, Mapping
+from typing import TYPE_CHECKING, Any
+
+from starlette.applications import Starlette
+from starlette.requests import Request
+from starlette.responses import JSONResponse, Response, StreamingResponse
+from starlette.routing import Route
+
+from robostar.commands.base import Command
+from robostar.commands.registry import all_commands, decode_request
+from robostar.errors import ControllerError, RobostarError, UsageError
+from robostar.serve.jsonable import jsonable, sample_json
+from robostar.serve.lease import LeaseHeldError, Who
+from robostar.serve.line import Line, LineDownError
+from robostar.serving import check_host, is_loopback, parse_listen
+from robostar.serving.address import warn_remote
+
+if TYPE_CHECKING:
+    from robostar.serve.n1serve import N1Face
+    from robostar.serve.server import LineServer
+
+__all__ = ["ApiFace", "build_app", "create"]
+
+log = logging.getLogger("robostar.serve.api")
+_BY_NAME: dict[str, type[Command[Any]]] = {cls.__name__: cls for cls in all_commands()}
+
+
+def _error(status: int, message: str, kind: str) -> JSONResponse:
+    return JSONResponse({"error": kind, "message": message}, status_code=status)
+
+
+class _Api:
+    def __init__(self, server: LineServer, token: str | None) -> None:
+        self.server = server
+        self.token = token
+        self.own_n1: N1Face | None = None
+
+    def authorised(self, request: Request) -> bool:
+        if self.token is None:
+            return True
+        given = request.headers.get("authorization", "")
+        return hmac.compare_digest(given, f"Bearer {self.token}")
+
+    def line(self, request: Request) -> Line | None:
+        return self.server.lines.get(request.path_params["line"])
+
+    @staticmethod
+    def who(request: Request) -> Who:
+        client = request.client.host if request.client else "?"
+        return Who(request.headers.get("x-robostar-who") or f"api:{client}", "api")
+
+    def n1_address(self, name: str) -> tuple[str, int] | None:
+        for face in (self.server.faces.get("n1"), self.own_n1):
+            addresses = getattr(face, "addresses", {})
+            if name in addresses:
+                return tuple(addresses[name])
+        return None
+
+    def line_json(self, line: Line) -> dict[str, Any]:
+        holder = line.lease.holder
+        health = line.health
+        return {
+            "name": line.name,
+            "url": line.config.url,
+            "up": line.up,
+            "last_error": health.last_error,
+            "latency": health.latency,
+            "exchanges": health.exchanges,
+            "errors": health.errors,
+            "reconnects": health.reconnects,
+            "poll_age": health.poll_age,
+            "queue_depth": line.queue_depth,
+            "lease": None
+            if holder is None
+            else {
+                "who": holder.who.name,
+                "face": holder.who.face,
+                "since": holder.since,
+                "expires_at": holder.expires_at,
+            },
+            "n1": self.n1_address(line.name),
+        }
+
+
+def build_app(server: LineServer, token: str | None = None) -> Starlette:
+    """The Starlette application of the API (also what tests drive with a TestClient)."""
+    api = _Api(server, token)
+
+    async def guard(request: Request) -> Response | tuple[_Api, Line]:
+        if not api.authorised(request):
+            return _error(401, "a valid 'Authorization: Bearer TOKEN' header is required", "auth")
+        line = api.line(request)
+        if line is None:
+            names = ", ".join(server.lines)
+            return _error(404, f"no line {request.path_params['line']!r} ({names})", "line")
+        return api, line
+
+    async def lines(request: Request) -> Response:
+        if not api.authorised(request):
+            return _error(401, "a valid 'Authorization: Bearer TOKEN' header is required", "auth")
+        return JSONResponse([api.line_json(line) for line in server.lines.values()])
+
+    async def model(request: Request) -> Response:
+        got = await guard(request)
+        if isinstance(got, Response):
+            return got
+        _, line = got
+        snap = line.model.snapshot()
+        return JSONResponse(
+            {"line": api.line_json(line), "model": {k: sample_json(s) for k, s in snap.items()}}
+        )
+
+    async def model_key(request: Request) -> Response:
+        got = await guard(request)
+        if isinstance(got, Response):
+            return got
+        _, line = got
+        sample = line.model.get(request.path_params["key"])
+        if sample is None:
+            return _error(404, f"no key {request.path_params['key']!r}", "key")
+        return JSONResponse(sample_json(sample))
+
+    async def events(request: Request) -> Response:
+        got = await guard(request)
+        if isinstance(got, Response):
+            return got
+        _, line = got
+        sub = line.model.subscribe(maxsize=int(request.query_params.get("maxsize", "1000")))
+
+        async def stream() -> AsyncIterator[str]:
+            try:
+                for key, sample in line.model.snapshot().items():
+                    yield _sse(key, sample_json(sample))
+                while True:
+                    try:
+                        change = await asyncio.wait_for(anext(sub), 15.0)
+                    except TimeoutError:
+                        yield ": keepalive\n\n"
+                        continue
+                    except StopAsyncIteration:
+                        return
+                    yield _sse(change.key, sample_json(change.sample))
+            finally:
+                sub.close()
+
+        return StreamingResponse(stream(), media_type="text/event-stream")
+
+    async def commands(request: Request) -> Response:
+        got = await guard(request)
+        if isinstance(got, Response):
+            return got
+        _, line = got
+        try:
+            body = await request.json()
+            command = _command_from(body)
+        except (ValueError, TypeError, RobostarError) as exc:
+            return _error(400, str(exc), "usage")
+        who = api.who(request)
+        implicit = bool(body.get("implicit_lease", False))
+        try:
+            if command.CHANGES_STATE:
+                result = await line.execute(command, who=who, implicit_lease=implicit)
+            else:
+                max_age = body.get("max_age")
+                result = await line.read(command, max_age=max_age)
+        except LeaseHeldError as exc:
+            return _error(409, str(exc), "lease")
+        except LineDownError as exc:
+            return _error(503, str(exc), "line down")
+        except UsageError as exc:
+            return _error(400, str(exc), "usage")
+        except ControllerError as exc:
+            return _error(422, str(exc), "controller")
+        except RobostarError as exc:
+            return _error(502, str(exc), type(exc).__name__)
+        return JSONResponse({"result": jsonable(result)})
+
+    async def lease(request: Request) -> Response:
+        got = await guard(request)
+        if isinstance(got, Response):
+            return got
+        _, line = got
+        who = api.who(request)
+        if request.method == "DELETE":
+            return JSONResponse({"released": line.lease.release(who)})
+        ttl = request.query_params.get("ttl")
+        try:
+            info = line.lease.acquire(who, float(ttl) if ttl else None)
+        except LeaseHeldError as exc:
+            return _error(409, str(exc), "lease")
+        except ValueError:
+            return _error(400, f"ttl: {ttl!r} is not a number of seconds", "usage")
+        return JSONResponse({"who": who.name, "since": info.since, "expires_at": info.expires_at})
+
+    async def n1(request: Request) -> Response:
+        got = await guard(request)
+        if isinstance(got, Response):
+            return got
+        _, line = got
+        address = api.n1_address(line.name)
+        if address is None:
+            from robostar.serve.n1serve import N1Face
+
+            face = api.own_n1
+            if face is None:
+                face = api.own_n1 = N1Face(server, {}, allow_remote=False)
+            await face.add_line(line.name, ("127.0.0.1", 0))
+            address = api.n1_address(line.name)
+        return JSONResponse({"line": line.name, "n1": address})
+
+    app = Starlette(
+        routes=[
+            Route("/lines", lines),
+            Route("/lines/{line}", model),
+            Route("/lines/{line}/model/{key:path}", model_key),
+            Route("/lines/{line}/events", events),
+            Route("/lines/{line}/commands", commands, methods=["POST"]),
+            Route("/lines/{line}/lease", lease, methods=["POST", "DELETE"]),
+            Route("/lines/{line}/n1", n1),
+        ]
+    )
+    app.state.api = api
+    return app
+
+
+def _sse(key: str, data: dict[str, Any]) -> str:
+    return f"event: change\ndata: {json.dumps({'key': key, **data})}\n\n"
+
+
+def _command_from(body: Any) -> Command[Any]:
+    if not isinstance(body, dict):
+        raise UsageError('expected {"command": NAME, "args": {...}} or {"hex": "..."}')
+    if "hex" in body:
+        return decode_request(bytes.fromhex(str(body["hex"])))
+    name = body.get("command")
+    cls = _BY_NAME.get(str(name))
+    if cls is None:
+        raise UsageError(f"command: {name!r} is not a command class name (e.g. ReadStatus)")
+    args = body.get("args", {})
+    if not isinstance(args, dict):
+        raise UsageError("args: expected an object of the command's fields")
+    command = cls(**args)
+    command.encode()
+    return command
+
+
+class ApiFace:
+    """Runs the API under uvicorn, inside the server's event loop."""
+
+    def __init__(
+        self, server: LineServer, listen: tuple[str, int], allow_remote: bool, token: str | None
+    ) -> None:
+        host = listen[0]
+        if not is_loopback(host) and not token:
+            raise UsageError("api: binding beyond loopback needs a token")
+        check_host(host, allow_remote)
+        self.listen = listen
+        self.app = build_app(server, token)
+        self.address: tuple[str, int] | None = None
+        self._uvicorn: Any = None
+        self._task: asyncio.Task[None] | None = None
+
+    async def start(self) -> None:
+        import uvicorn
+
+        host, port = self.listen
+        config = uvicorn.Config(self.app, host=host, port=port, log_level="warning", lifespan="off")
+        self._uvicorn = uvicorn.Server(config)
+        self._uvicorn.install_signal_handlers = lambda: None  # the CLI owns the signals
+        self._task = asyncio.create_task(self._uvicorn.serve())
+        while not self._uvicorn.started:
+            if self._task.done():
+                self._task.result()
+                raise UsageError(f"api: could not listen on {host}:{port}")
+            await asyncio.sleep(0.01)
+        sock = self._uvicorn.servers[0].sockets[0]
+        bound = sock.getsockname()
+        self.address = (str(bound[0]), int(bound[1]))
+        warn_remote(host, self.address[1], "the local API")
+        log.info("api on http://%s:%d", *self.address)
+
+    async def stop(self) -> None:
+        if self._uvicorn is not None:
+            self._uvicorn.should_exit = True
+            self._uvicorn.force_exit = True
+        if self._task is not None:
+            with contextlib.suppress(Exception):
+                await asyncio.wait_for(self._task, 5)
+            self._task = None
+        own = self.app.state.api.own_n1
+        if own is not None:
+            await own.stop()
+
+
+def create(server: LineServer, options: Mapping[str, Any]) -> ApiFace:
+    """``options``: ``{"listen": "HOST:PORT", "allow_remote": bool, "token": str}``."""
+    listen = options.get("listen")
+    if not isinstance(listen, str):
+        raise UsageError('api.listen: expected "HOST:PORT"')
+    token = options.get("token")
+    return ApiFace(
+        server,
+        parse_listen(listen),
+        bool(options.get("allow_remote", False)),
+        str(token) if token else None,
+    )

@@ -1,0 +1,152 @@
+"""The metrics face: a Prometheus text endpoint (``GET /metrics``) with per-line figures."""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+from collections.abc import Iterator, Mapping
+from typing import TYPE_CHECKING, Any
+
+from prometheus_client import CollectorRegistry, generate_latest
+from prometheus_client.core import CounterMetricFamily, GaugeMetricFamily, Metric
+from prometheus_client.registry import Collector
+
+from robostar.errors import UsageError
+from robostar.serving import check_host, parse_listen
+from robostar.serving.address import warn_remote
+
+if TYPE_CHECKING:
+    from robostar.serve.server import LineServer
+
+__all__ = ["LineCollector", "MetricsFace", "create", "registry_for"]
+
+log = logging.getLogger("robostar.serve.metrics")
+
+
+class LineCollector(Collector):
+    """Reads every line's health at scrape time (nothing to update on the hot path)."""
+
+    def __init__(self, server: LineServer) -> None:
+        self.server = server
+
+    def collect(self) -> Iterator[Metric]:
+        up = GaugeMetricFamily("robostar_line_up", "1 when the line is open", labels=["line"])
+        exchanges = CounterMetricFamily(
+            "robostar_line_exchanges", "Exchanges run on the line", labels=["line"]
+        )
+        errors = CounterMetricFamily(
+            "robostar_line_errors", "Exchanges that ended in an error", labels=["line"]
+        )
+        reconnects = CounterMetricFamily(
+            "robostar_line_reconnects", "Times the line was reopened", labels=["line"]
+        )
+        latency = GaugeMetricFamily(
+            "robostar_line_latency_seconds", "Duration of the last exchange", labels=["line"]
+        )
+        p99 = GaugeMetricFamily(
+            "robostar_line_latency_p99_seconds",
+            "99th percentile of recent exchanges",
+            labels=["line"],
+        )
+        depth = GaugeMetricFamily(
+            "robostar_line_queue_depth", "Requests queued or running", labels=["line"]
+        )
+        age = GaugeMetricFamily(
+            "robostar_line_poll_age_seconds", "Time since the last complete poll", labels=["line"]
+        )
+        updates = CounterMetricFamily(
+            "robostar_model_updates", "Values stored in the model", labels=["line"]
+        )
+        subscribers = GaugeMetricFamily(
+            "robostar_model_subscribers", "Subscriptions to the model", labels=["line"]
+        )
+        for name, line in self.server.lines.items():
+            health = line.health
+            up.add_metric([name], 1.0 if line.up else 0.0)
+            exchanges.add_metric([name], health.exchanges)
+            errors.add_metric([name], health.errors)
+            reconnects.add_metric([name], health.reconnects)
+            depth.add_metric([name], line.queue_depth)
+            updates.add_metric([name], line.model.updates)
+            subscribers.add_metric([name], line.model.subscribers)
+            if health.latency is not None:
+                latency.add_metric([name], health.latency)
+            if health.latencies:
+                ordered = sorted(health.latencies)
+                p99.add_metric([name], ordered[min(len(ordered) - 1, int(len(ordered) * 0.99))])
+            if health.poll_age is not None:
+                age.add_metric([name], health.poll_age)
+        yield from (
+            up,
+            exchanges,
+            errors,
+            reconnects,
+            latency,
+            p99,
+            depth,
+            age,
+            updates,
+            subscribers,
+        )
+
+
+def registry_for(server: LineServer) -> CollectorRegistry:
+    registry = CollectorRegistry()
+    registry.register(LineCollector(server))
+    return registry
+
+
+class MetricsFace:
+    """A minimal asyncio HTTP server answering ``GET /metrics`` (and 404 for anything else)."""
+
+    def __init__(self, server: LineServer, listen: tuple[str, int], allow_remote: bool) -> None:
+        self.registry = registry_for(server)
+        self.listen = listen
+        self.allow_remote = allow_remote
+        self.address: tuple[str, int] | None = None
+        self._server: asyncio.Server | None = None
+
+    async def start(self) -> None:
+        host, port = self.listen
+        check_host(host, self.allow_remote)
+        self._server = await asyncio.start_server(self._handle, host, port)
+        bound = self._server.sockets[0].getsockname()
+        self.address = (str(bound[0]), int(bound[1]))
+        warn_remote(host, self.address[1], "the metrics endpoint")
+        log.info("metrics on http://%s:%d/metrics", *self.address)
+
+    async def _handle(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+        try:
+            request = await asyncio.wait_for(reader.readuntil(b"\r\n\r\n"), 5.0)
+            target = request.split(b" ", 2)[1] if request.count(b" ") >= 2 else b""
+            if request.startswith(b"GET ") and target.split(b"?")[0] == b"/metrics":
+                body = generate_latest(self.registry)
+                head = b"HTTP/1.1 200 OK\r\nContent-Type: text/plain; version=0.0.4\r\n"
+            else:
+                body = b"not found\n"
+                head = b"HTTP/1.1 404 Not Found\r\nContent-Type: text/plain\r\n"
+            writer.write(
+                head + b"Content-Length: %d\r\nConnection: close\r\n\r\n" % len(body) + body
+            )
+            await writer.drain()
+        except (asyncio.IncompleteReadError, asyncio.LimitOverrunError, TimeoutError, OSError):
+            pass
+        finally:
+            writer.close()
+            with contextlib.suppress(OSError):
+                await writer.wait_closed()
+
+    async def stop(self) -> None:
+        server, self._server = self._server, None
+        if server is not None:
+            server.close()
+            await server.wait_closed()
+
+
+def create(server: LineServer, options: Mapping[str, Any]) -> MetricsFace:
+    """``options``: ``{"listen": "HOST:PORT", "allow_remote": bool}``."""
+    listen = options.get("listen")
+    if not isinstance(listen, str):
+        raise UsageError('metrics.listen: expected "HOST:PORT"')
+    return MetricsFace(server, parse_listen(listen), bool(options.get("allow_remote", False)))

@@ -1,0 +1,104 @@
+"""The control lease of one controller: one holder at a time, named, expiring, visible to all."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from robostar.errors import RobostarError
+
+__all__ = ["FACES", "Lease", "LeaseHeldError", "LeaseInfo", "Who"]
+
+FACES = frozenset(("n1", "api", "mqtt", "opcua", "web", "cli"))
+
+
+@dataclass(frozen=True)
+class Who:
+    """A consumer: its name (a connection, a user, a client id) and the face it came through."""
+
+    name: str
+    face: str
+
+    def __str__(self) -> str:
+        return f"{self.name} ({self.face})"
+
+
+@dataclass(frozen=True)
+class LeaseInfo:
+    """Who holds the lease, since when and until when (``time.time()`` values)."""
+
+    who: Who
+    since: float
+    expires_at: float
+
+
+class LeaseHeldError(RobostarError):
+    """Another consumer holds the controller's lease; the message names the holder."""
+
+    def __init__(self, line: str, holder: LeaseInfo) -> None:
+        left = max(0.0, holder.expires_at - time.time())
+        super().__init__(
+            f"line {line}: control is held by {holder.who} (expires in {left:.0f} s unless renewed)"
+        )
+        self.line = line
+        self.holder = holder
+
+
+class Lease:
+    """One holder at a time; an expired lease is free. Callbacks hear of every loss of the lease."""
+
+    def __init__(
+        self, line: str, *, ttl: float = 30.0, clock: Callable[[], float] = time.time
+    ) -> None:
+        self.line = line
+        self.ttl = ttl
+        self._clock = clock
+        self._info: LeaseInfo | None = None
+        self.on_lost: list[Callable[[Who], None]] = []
+        """Called with the old holder when a lease is released, expires or is taken over."""
+
+    @property
+    def holder(self) -> LeaseInfo | None:
+        info = self._info
+        if info is not None and info.expires_at <= self._clock():
+            self._info = None
+            self._lost(info.who)
+            return None
+        return info
+
+    def held_by(self, who: Who) -> bool:
+        info = self.holder
+        return info is not None and info.who == who
+
+    def acquire(self, who: Who, ttl: float | None = None) -> LeaseInfo:
+        """Take the lease (or renew it if ``who`` holds it); LeaseHeldError if another does."""
+        info = self.holder
+        now = self._clock()
+        if info is not None and info.who != who:
+            raise LeaseHeldError(self.line, info)
+        since = info.since if info is not None else now
+        self._info = LeaseInfo(who, since, now + (self.ttl if ttl is None else ttl))
+        return self._info
+
+    def renew(self, who: Who, ttl: float | None = None) -> LeaseInfo:
+        """Push the expiry forward; LeaseHeldError if ``who`` does not hold the lease."""
+        info = self.holder
+        if info is None or info.who != who:
+            if info is None:
+                raise LeaseHeldError(self.line, LeaseInfo(Who("nobody", "-"), 0.0, 0.0))
+            raise LeaseHeldError(self.line, info)
+        return self.acquire(who, ttl)
+
+    def release(self, who: Who) -> bool:
+        """Give the lease up; False if ``who`` did not hold it."""
+        info = self.holder
+        if info is None or info.who != who:
+            return False
+        self._info = None
+        self._lost(who)
+        return True
+
+    def _lost(self, who: Who) -> None:
+        for callback in list(self.on_lost):
+            callback(who)

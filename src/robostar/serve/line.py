@@ -1,0 +1,529 @@
+"""One controller line: a worker owning its AsyncClient, a priority queue, the poller and the lease.
+
+Every exchange on the line goes through one queue served by one worker, so consumers never
+interleave on the wire (as mbusd serialises Modbus TCP clients onto one RTU line). Stops (CF, CD,
+CI, BG) go first and cancel a transfer in progress; a jog keepalive (BF) goes next; then writes,
+consumers' reads and last the poller's reads.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import itertools
+import logging
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any, TypeVar, cast
+
+from robostar.client.aio import AsyncClient
+from robostar.commands.base import Command
+from robostar.commands.control import EmergencyStop, ReadSpeed, StopHoming, StopJob
+from robostar.commands.files import DownloadFile, ReadAlarmHistory, UploadFile
+from robostar.commands.io import ReadInputs, ReadOutputs
+from robostar.commands.job import ReadJobName, ReadJobStep
+from robostar.commands.motion import JogContinue, JogStart, JogStop
+from robostar.commands.status import ReadAlarms, ReadInfo, ReadPosition, ReadStatus
+from robostar.errors import (
+    ControllerError,
+    LineError,
+    OutcomeUnknownError,
+    PortError,
+    ReplyTimeoutError,
+    RobostarError,
+    UsageError,
+)
+from robostar.serve.audit import AuditLog
+from robostar.serve.config import LineConfig
+from robostar.serve.lease import Lease, Who
+from robostar.serve.model import ControllerModel, Quality
+from robostar.types import ControllerInfo, PositionKind
+
+__all__ = ["STOPS", "AbortedByStopError", "Line", "LineDownError", "LineHealth", "model_key"]
+
+R = TypeVar("R")
+log = logging.getLogger("robostar.serve")
+
+STOPS = (EmergencyStop, StopJob, StopHoming, JogStop)
+"""CF, CD, CI, BG: anyone may send them (no lease), and they jump every queue."""
+_TRANSFERS = (UploadFile, DownloadFile, ReadAlarmHistory)
+"""Long multi-packet exchanges a stop cancels rather than waits for."""
+
+PRI_STOP, PRI_KEEPALIVE, PRI_WRITE, PRI_READ, PRI_POLL = range(5)
+_MAX_TIMEOUTS = 3
+"""Consecutive reply timeouts after which the line is taken for down and reopened."""
+_BACKOFF = (0.2, 0.5, 1.0, 2.0, 5.0, 10.0)
+
+
+class LineDownError(LineError):
+    """The line is down (or the server is stopping); nothing was sent."""
+
+
+class AbortedByStopError(LineError):
+    """A transfer in progress was cancelled so that a stop could go out at once."""
+
+
+@dataclass
+class LineHealth:
+    """What a dashboard or a metrics scrape wants to know about a line."""
+
+    up: bool = False
+    last_error: str | None = None
+    latency: float | None = None
+    """Duration of the last exchange, seconds."""
+    exchanges: int = 0
+    errors: int = 0
+    reconnects: int = 0
+    last_poll: float | None = None
+    """``time.time()`` of the end of the last complete poll cycle."""
+    latencies: list[float] = field(default_factory=list, repr=False)
+    """Recent exchange durations (bounded), for the metrics histogram."""
+
+    @property
+    def poll_age(self) -> float | None:
+        return None if self.last_poll is None else max(0.0, time.time() - self.last_poll)
+
+
+@dataclass(order=True)
+class _Job:
+    priority: int
+    seq: int
+    command: Command[Any] = field(compare=False)
+    future: asyncio.Future[Any] = field(compare=False)
+    who: Who | None = field(compare=False, default=None)
+
+
+def model_key(command: Command[Any]) -> str | None:
+    """The model key that answers ``command`` (a read), or None if the model cannot."""
+    match command:
+        case ReadInfo():
+            return "info"
+        case ReadAlarms():
+            return "alarms"
+        case ReadAlarmHistory():
+            return "alarm_history"
+        case ReadPosition(channel=ch, kind=PositionKind.XY):
+            return f"ch{ch}/position"
+        case ReadPosition(channel=ch, kind=PositionKind.ANGLE):
+            return f"ch{ch}/angles"
+        case ReadSpeed(channel=ch):
+            return f"ch{ch}/speed"
+        case ReadJobName(channel=ch):
+            return f"ch{ch}/job"
+        case ReadJobStep(channel=ch):
+            return f"ch{ch}/step"
+        case ReadInputs(port=port):
+            return f"io/in/{port}"
+        case ReadOutputs(port=port):
+            return f"io/out/{port}"
+    return None
+
+
+def _describe(command: Command[Any]) -> str:
+    return repr(command) if len(repr(command)) <= 200 else f"{command.CODE}(...)"
+
+
+class Line:
+    """One named controller line; see the module docstring for the order of the queue."""
+
+    def __init__(
+        self,
+        config: LineConfig,
+        *,
+        audit: AuditLog | None = None,
+        lease_ttl: float = 30.0,
+        client_factory: Callable[[LineConfig], AsyncClient] | None = None,
+    ) -> None:
+        self.name = config.name
+        self.config = config
+        self.model = ControllerModel(config.name)
+        self.lease = Lease(config.name, ttl=lease_ttl)
+        self.health = LineHealth()
+        self.audit = audit if audit is not None else AuditLog(None)
+        self._client_factory = client_factory or _default_client
+        self._client: AsyncClient | None = None
+        self._queue: asyncio.PriorityQueue[_Job] = asyncio.PriorityQueue()
+        self._seq = itertools.count()
+        self._current: _Job | None = None
+        self._current_task: asyncio.Task[Any] | None = None
+        self._aborted_by: Command[Any] | None = None
+        self._tasks: list[asyncio.Task[None]] = []
+        self._up = asyncio.Event()
+        self._first_attempt = asyncio.Event()
+        self._stopping = False
+        self._timeouts = 0
+        self._jogs: dict[int, Who] = {}
+        self._unsupported: set[str] = set()
+        self._poll_now = asyncio.Event()
+        self._written = False
+        self.info: ControllerInfo | None = None
+        self.lease.on_lost.append(self._lease_lost)
+
+    # -- life cycle ------------------------------------------------------------------------
+    async def start(self) -> None:
+        """Start the worker and the poller; returns after the first attempt to open the line."""
+        self._stopping = False
+        self._tasks = [
+            asyncio.create_task(self._worker(), name=f"line {self.name} worker"),
+            asyncio.create_task(self._poller(), name=f"line {self.name} poller"),
+        ]
+        await self._first_attempt.wait()
+
+    async def stop(self) -> None:
+        """Stop running jogs, fail what is still queued, close the line."""
+        if self._up.is_set():
+            for channel in list(self._jogs):
+                with contextlib.suppress(RobostarError, asyncio.TimeoutError):
+                    await asyncio.wait_for(
+                        self._submit(JogStop(channel), PRI_STOP, None), self.config.timeout
+                    )
+        self._stopping = True
+        self._fail_queued(LineDownError(f"line {self.name}: the server is stopping"))
+        for task in self._tasks:
+            task.cancel()
+        for task in self._tasks:
+            with contextlib.suppress(asyncio.CancelledError):
+                await task
+        self._tasks = []
+        await self._close_client()
+        self._set_down("stopped")
+
+    @property
+    def up(self) -> bool:
+        return self._up.is_set()
+
+    @property
+    def queue_depth(self) -> int:
+        return self._queue.qsize() + (1 if self._current is not None else 0)
+
+    # -- the public calls ------------------------------------------------------------------
+    async def execute(self, command: Command[R], *, who: Who, implicit_lease: bool = False) -> R:
+        """Run ``command`` for ``who`` through the queue (state changes need the lease)."""
+        if not command.CHANGES_STATE:
+            return await self.read(command)
+        is_stop = isinstance(command, STOPS)
+        if not is_stop:
+            try:
+                if self.lease.held_by(who) or implicit_lease:
+                    self.lease.acquire(who)
+                else:
+                    self.lease.renew(who)
+            except RobostarError as exc:
+                self._audit(command, who, f"refused: {exc}")
+                raise
+        priority = PRI_STOP if is_stop else PRI_WRITE
+        if isinstance(command, JogContinue):
+            priority = PRI_KEEPALIVE
+        try:
+            result = await self._submit(command, priority, who)
+        except BaseException as exc:
+            self._audit(command, who, f"error: {type(exc).__name__}: {exc}")
+            raise
+        self._audit(command, who, "ok")
+        if isinstance(command, JogStart):
+            self._jogs[command.channel] = who
+        elif isinstance(command, JogStop):
+            self._jogs.pop(command.channel, None)
+        elif isinstance(command, EmergencyStop):
+            self._jogs.clear()
+        return result
+
+    async def read(self, command: Command[R], *, max_age: float | None = None) -> R:
+        """Answer a read from the model when fresh enough, else from the line (and store it)."""
+        if command.CHANGES_STATE:
+            raise UsageError(f"{command.CODE} changes state: use execute(), with a lease holder")
+        limit = self.config.max_age if max_age is None else max_age
+        if limit is None:
+            limit = self.config.poll_interval * 2
+        cached = self._from_model(command, limit)
+        if cached is not None:
+            return cast(R, cached[0])
+        result = await self._submit(command, PRI_READ, None)
+        self._store(command, result)
+        return result
+
+    # -- the queue -------------------------------------------------------------------------
+    async def _submit(self, command: Command[R], priority: int, who: Who | None) -> R:
+        if self._stopping:
+            raise LineDownError(f"line {self.name}: the server is stopping")
+        if not self._up.is_set():
+            raise LineDownError(
+                f"line {self.name} is down ({self.health.last_error or 'not connected yet'});"
+                " nothing was sent"
+            )
+        command.encode()  # bad input fails here, before it waits in the queue or reaches the wire
+        future: asyncio.Future[R] = asyncio.get_running_loop().create_future()
+        self._queue.put_nowait(_Job(priority, next(self._seq), command, future, who))
+        if priority == PRI_STOP:
+            self._preempt(command)
+        return await future
+
+    def _preempt(self, stop: Command[Any]) -> None:
+        job, task = self._current, self._current_task
+        if job is not None and task is not None and isinstance(job.command, _TRANSFERS):
+            self._aborted_by = stop
+            task.cancel()
+
+    def _fail_queued(self, error: BaseException) -> None:
+        while not self._queue.empty():
+            job = self._queue.get_nowait()
+            if not job.future.done():
+                job.future.set_exception(error)
+
+    async def _worker(self) -> None:
+        attempt = 0
+        while True:
+            if not self._up.is_set():
+                if not await self._connect():
+                    self._first_attempt.set()
+                    self._fail_queued(
+                        LineDownError(f"line {self.name} is down: {self.health.last_error}")
+                    )
+                    await asyncio.sleep(_BACKOFF[min(attempt, len(_BACKOFF) - 1)])
+                    attempt += 1
+                    continue
+                attempt = 0
+                self._first_attempt.set()
+            job = await self._queue.get()
+            if job.future.done():
+                continue
+            await self._run(job)
+
+    async def _run(self, job: _Job) -> None:
+        client = self._client
+        assert client is not None
+        self._current = job
+        self._aborted_by = None
+        started = time.perf_counter()
+        task = asyncio.create_task(client.execute(job.command))
+        self._current_task = task
+        try:
+            result = await asyncio.shield(task)
+        except asyncio.CancelledError:
+            if task.cancelled() and self._aborted_by is not None and not job.future.done():
+                # cancelled by a stop: the AsyncClient ended the exchange with RST
+                stop = self._aborted_by
+                job.future.set_exception(
+                    AbortedByStopError(
+                        f"line {self.name}: {job.command.CODE} aborted by stop {stop.CODE}"
+                        " (a partial transfer: the controller's copy is incomplete)"
+                    )
+                )
+                self._count(started, error=True)
+                return
+            task.cancel()
+            with contextlib.suppress(BaseException):
+                await task
+            if not job.future.done():
+                stopping = f"line {self.name}: the server stopped during the exchange"
+                job.future.set_exception(
+                    OutcomeUnknownError(job.command.CODE, stopping)
+                    if job.command.CHANGES_STATE
+                    else LineDownError(stopping)
+                )
+            raise
+        except RobostarError as exc:
+            self._count(started, error=True)
+            await self._line_trouble(exc)  # first: the waiter then sees the line as it is
+            if not job.future.done():
+                job.future.set_exception(exc)
+            return
+        except Exception as exc:  # a bug must reach the caller, not kill the worker
+            self._count(started, error=True)
+            if not job.future.done():
+                job.future.set_exception(exc)
+            return
+        finally:
+            self._current = None
+            self._current_task = None
+        self._timeouts = 0
+        self._count(started, error=False)
+        if job.command.CHANGES_STATE:
+            self.model.invalidate()
+            self._written = True
+            self._poll_now.set()  # subscribers see the effect of a write at once
+        if not job.future.done():
+            job.future.set_result(result)
+
+    def _count(self, started: float, *, error: bool) -> None:
+        elapsed = time.perf_counter() - started
+        self.health.exchanges += 1
+        self.health.latency = elapsed
+        self.health.latencies.append(elapsed)
+        if len(self.health.latencies) > 1000:
+            del self.health.latencies[:500]
+        if error:
+            self.health.errors += 1
+
+    async def _line_trouble(self, exc: RobostarError) -> None:
+        self.health.last_error = f"{type(exc).__name__}: {exc}"
+        if isinstance(exc, ReplyTimeoutError):
+            self._timeouts += 1
+            if self._timeouts < _MAX_TIMEOUTS:
+                return
+        elif not isinstance(exc, PortError):
+            return
+        log.warning("line %s down: %s", self.name, exc)
+        await self._close_client()
+        self._set_down(self.health.last_error)
+
+    async def _connect(self) -> bool:
+        client = self._client_factory(self.config)
+        try:
+            await client.connect()
+            info = await client.execute(ReadInfo())
+        except RobostarError as exc:
+            with contextlib.suppress(RobostarError):
+                await client.close()
+            self.health.last_error = f"{type(exc).__name__}: {exc}"
+            self.health.errors += 1
+            return False
+        if self.health.exchanges or self.health.reconnects or self.info is not None:
+            self.health.reconnects += 1
+        self._client = client
+        self.info = info
+        self.model.set("info", info)
+        self.model.set("online", True)
+        self._timeouts = 0
+        self.health.up = True
+        self._up.set()
+        log.info("line %s up: %s %s", self.name, info.name, info.version)
+        return True
+
+    async def _close_client(self) -> None:
+        client, self._client = self._client, None
+        if client is not None:
+            with contextlib.suppress(RobostarError, OSError):
+                await client.close()
+
+    def _set_down(self, reason: str | None) -> None:
+        self._up.clear()
+        self.health.up = False
+        if reason:
+            self.health.last_error = reason
+        self.model.mark(Quality.LINE_DOWN)
+        self.model.set("online", False)
+
+    # -- the lease -------------------------------------------------------------------------
+    def _lease_lost(self, who: Who) -> None:
+        for channel, holder in list(self._jogs.items()):
+            if holder == who and self._up.is_set() and not self._stopping:
+                self._jogs.pop(channel, None)
+                task = asyncio.get_running_loop().create_task(self._stop_jog(channel, who))
+                task.add_done_callback(_ignore_result)
+
+    async def _stop_jog(self, channel: int, who: Who) -> None:
+        try:
+            await self._submit(JogStop(channel), PRI_STOP, None)
+        except RobostarError as exc:
+            self._audit(JogStop(channel), who, f"error: lease lost, jog stop failed: {exc}")
+            raise
+        self._audit(JogStop(channel), who, "jog stopped: lease lost")
+
+    def _audit(self, command: Command[Any], who: Who, outcome: str) -> None:
+        self.audit.write(
+            line=self.name, who=who.name, face=who.face, what=_describe(command), outcome=outcome
+        )
+
+    # -- the model -------------------------------------------------------------------------
+    def _from_model(self, command: Command[Any], max_age: float) -> tuple[Any] | None:
+        if isinstance(command, ReadStatus):
+            samples = [self.model.fresh(f"ch{n}/status", max_age) for n in (1, 2, 3)]
+            if all(s is not None for s in samples):
+                return (tuple(s.value for s in samples if s is not None),)
+            return None
+        key = model_key(command)
+        if key is None:
+            return None
+        sample = self.model.fresh(key, max_age)
+        return None if sample is None else (sample.value,)
+
+    def _store(self, command: Command[Any], result: Any) -> None:
+        if isinstance(command, ReadStatus):
+            for n, status in enumerate(result, start=1):
+                self.model.set(f"ch{n}/status", status)
+            return
+        key = model_key(command)
+        if key is not None:
+            self.model.set(key, result)
+
+    def channels(self) -> tuple[int, ...]:
+        """The channels the poller reads: the configured ones, else those the controller has."""
+        if self.config.channels:
+            return tuple(sorted(self.config.channels))
+        if self.info is not None:
+            return tuple(c.channel for c in self.info.channels if c.axes_in_use) or (1,)
+        return (1,)
+
+    async def _poller(self) -> None:
+        next_slow = 0.0
+        next_history = 0.0
+        while True:
+            await self._up.wait()
+            started = time.monotonic()
+            try:
+                fast: list[Command[Any]] = [ReadStatus()]
+                for ch in self.channels():
+                    fast.append(ReadPosition(ch, PositionKind.XY))
+                    fast.append(ReadPosition(ch, PositionKind.ANGLE))
+                if started >= next_slow or self._written:
+                    self._written = False
+                    next_slow = started + self.config.slow_interval
+                    fast.append(ReadAlarms())
+                    for ch in self.channels():
+                        fast += [ReadSpeed(ch), ReadJobName(ch), ReadJobStep(ch)]
+                    for port in self.config.io_ports:
+                        fast += [ReadInputs(port), ReadOutputs(port)]
+                if started >= next_history:
+                    next_history = started + self.config.history_interval
+                    fast.append(ReadAlarmHistory())
+                for command in fast:
+                    await self._poll_one(command)
+                self.health.last_poll = time.time()
+            except LineDownError:
+                await asyncio.sleep(0.05)
+                continue
+            except RobostarError as exc:
+                log.debug("line %s poll: %s", self.name, exc)
+                # the values are what they were, but nobody can vouch for them now
+                self.model.mark(Quality.STALE, only=Quality.GOOD)
+            delay = self.config.poll_interval - (time.monotonic() - started)
+            self._poll_now.clear()
+            with contextlib.suppress(TimeoutError):
+                await asyncio.wait_for(self._poll_now.wait(), max(0.0, delay))
+
+    async def _poll_one(self, command: Command[Any]) -> None:
+        key = model_key(command) or command.CODE
+        if key in self._unsupported:
+            return
+        try:
+            result = await self._submit(command, PRI_POLL, None)
+        except ControllerError as exc:
+            # a channel without a robot, an option the controller lacks: stop asking
+            log.info("line %s: %s not polled any more (%s)", self.name, key, exc)
+            self._unsupported.add(key)
+            return
+        self._store(command, result)
+
+    async def wait_polled(self, timeout: float = 5.0) -> None:
+        """Wait until a complete poll cycle has ended after now (tests, the CLI's start-up)."""
+        since = time.time()
+
+        async def cycle() -> None:
+            while self.health.last_poll is None or self.health.last_poll < since:
+                await asyncio.sleep(0.01)
+
+        await asyncio.wait_for(cycle(), timeout)
+
+
+def _ignore_result(task: asyncio.Task[Any]) -> None:
+    if not task.cancelled():
+        task.exception()
+
+
+def _default_client(config: LineConfig) -> AsyncClient:
+    options: dict[str, Any] = {}
+    if config.baudrate is not None:
+        options["baudrate"] = config.baudrate
+    return AsyncClient(config.url, timeout=config.timeout, **options)

@@ -1,0 +1,140 @@
+"""N1 sessions in front of a line: the machinery of the N1 face (and of serve:// on demand).
+
+Each connection is its own N1 session (robostar.serving). Reads are answered from the model when
+fresh; state changes go through the line's queue and lease: a connection takes the lease when it
+is free and keeps it while active (it expires after the lease's idle time, and is released when
+the connection closes). A request refused because another holds the lease answers flag 0x32, and
+KD then says who holds it.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+from collections.abc import Mapping
+from typing import TYPE_CHECKING
+
+from robostar.commands.files import UploadFile
+from robostar.commands.system import ReadLastError
+from robostar.errors import ControllerError, RobostarError
+from robostar.serve.lease import LeaseHeldError, Who
+from robostar.serve.line import Line
+from robostar.serving import AsyncHost, Backend, Refusal, Request, Session
+from robostar.serving.address import warn_remote
+
+if TYPE_CHECKING:
+    from robostar.serve.server import LineServer
+
+__all__ = ["LineBackend", "N1Face"]
+
+log = logging.getLogger("robostar.serve.n1")
+_FLAG_FAILED = 0x32
+
+
+class LineBackend(Backend):
+    """Hands each session's requests to one :class:`Line`."""
+
+    def __init__(self, line: Line) -> None:
+        self.line = line
+        self._tasks: set[asyncio.Task[None]] = set()
+
+    @staticmethod
+    def who(session: Session) -> Who:
+        return Who(f"n1:{session.name}", "n1")
+
+    def handle(self, request: Request) -> None:
+        if isinstance(request.command, ReadLastError) and request.session.last_error:
+            request.answer(request.session.last_error)
+            return
+        task = asyncio.get_running_loop().create_task(self._serve(request))
+        self._tasks.add(task)
+        task.add_done_callback(self._tasks.discard)
+
+    async def _serve(self, request: Request) -> None:
+        command = request.command
+        who = self.who(request.session)
+        try:
+            if command.CHANGES_STATE:
+                result = await self.line.execute(command, who=who, implicit_lease=True)
+            else:
+                result = await self.line.read(command)
+        except ControllerError as exc:
+            self._refuse(request, exc.reason or str(exc), exc.flag or _FLAG_FAILED)
+            return
+        except LeaseHeldError as exc:
+            self._refuse(request, str(exc), _FLAG_FAILED)
+            return
+        except RobostarError as exc:
+            self._refuse(request, f"line server: {exc}", _FLAG_FAILED)
+            return
+        if not request.live:
+            return
+        request.answer(result)
+        if request.two_phase:
+            request.finish()
+
+    @staticmethod
+    def _refuse(request: Request, reason: str, flag: int) -> None:
+        if request.live:
+            request.refuse(reason, flag)
+
+    def begin_upload(self, command: UploadFile) -> None:
+        # refuse before the lines are sent when another consumer holds the lease
+        holder = self.line.lease.holder
+        if holder is not None and holder.who.face == "n1":
+            return
+        if holder is not None:
+            raise Refusal(str(LeaseHeldError(self.line.name, holder)), _FLAG_FAILED)
+
+    def session_closed(self, session: Session) -> None:
+        self.line.lease.release(self.who(session))
+
+    async def drain(self) -> None:
+        for task in list(self._tasks):
+            task.cancel()
+        if self._tasks:
+            await asyncio.gather(*self._tasks, return_exceptions=True)
+
+
+class N1Face:
+    """One :class:`AsyncHost` per configured line."""
+
+    def __init__(
+        self, server: LineServer, listens: Mapping[str, tuple[str, int]], allow_remote: bool
+    ) -> None:
+        self.server = server
+        self.listens = dict(listens)
+        self.allow_remote = allow_remote
+        self.hosts: dict[str, AsyncHost] = {}
+        self.backends: dict[str, LineBackend] = {}
+        self.addresses: dict[str, tuple[str, int]] = {}
+
+    async def start(self) -> None:
+        for name, listen in self.listens.items():
+            await self.add_line(name, listen)
+
+    async def add_line(self, name: str, listen: tuple[str, int]) -> tuple[str, int]:
+        """Serve line ``name`` on ``listen`` (once; the address it is served on)."""
+        if name in self.addresses:
+            return self.addresses[name]
+        host, port = listen
+        backend = LineBackend(self.server.lines[name])
+        timeout = self.server.lines[name].config.timeout
+
+        def factory(conn: str) -> Session:
+            return Session(backend, name=conn, timeout=timeout)
+
+        n1 = AsyncHost(factory, name=f"n1 {name}")
+        self.addresses[name] = await n1.start(host, port, allow_remote=self.allow_remote)
+        warn_remote(host, self.addresses[name][1], f"the N1 face of line {name}")
+        self.hosts[name] = n1
+        self.backends[name] = backend
+        log.info("n1 face: line %s on %s:%d", name, *self.addresses[name])
+        return self.addresses[name]
+
+    async def stop(self) -> None:
+        for name, n1 in self.hosts.items():
+            await n1.close()
+            await self.backends[name].drain()
+        self.hosts.clear()
+        self.addresses.clear()

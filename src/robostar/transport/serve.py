@@ -1,0 +1,98 @@
+"""``serve://HOST:PORT/LINE``: a line of a ``robostar serve`` process, through its N1 face.
+
+``HOST:PORT`` is the server's local API; opening asks it (``GET /lines/LINE/n1``) where the
+line's N1 face listens (the API starts one on loopback when none is configured), then connects
+there over TCP. Every client and CLI command thus works through the line server unchanged.
+A token for a remote server goes in the ``token`` option (``serve://h:p/cell1?token=...``).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import urllib.error
+import urllib.request
+
+from robostar.errors import PortError
+from robostar.transport.aio import AsyncTcpTransport
+from robostar.transport.tcp import TcpTransport
+
+__all__ = ["AsyncServeTransport", "ServeTransport", "resolve_line"]
+
+DEFAULT_API_PORT = 8470
+"""The local API's port when a serve:// URL names none."""
+
+
+def resolve_line(
+    api_host: str, api_port: int, line: str, token: str | None, timeout: float
+) -> tuple[str, int]:
+    """Ask the server's API where ``line``'s N1 face listens; PortError saying why not."""
+    url = f"http://{api_host}:{api_port}/lines/{line}/n1"
+    request = urllib.request.Request(url)
+    if token:
+        request.add_header("Authorization", f"Bearer {token}")
+    try:
+        with urllib.request.urlopen(request, timeout=timeout) as reply:
+            data = json.loads(reply.read())
+    except urllib.error.HTTPError as exc:
+        detail = exc.read().decode("utf-8", "replace")[:200]
+        raise PortError(f"serve://{api_host}:{api_port}/{line}: {exc.code} {detail}") from exc
+    except (OSError, ValueError) as exc:
+        raise PortError(
+            f"serve://{api_host}:{api_port}/{line}: no line server API there ({exc});"
+            " is robostar serve running with --api?"
+        ) from exc
+    address = data.get("n1") if isinstance(data, dict) else None
+    if not isinstance(address, list) or len(address) != 2:
+        raise PortError(f"serve://{api_host}:{api_port}/{line}: the server gave no N1 address")
+    return str(address[0]), int(address[1])
+
+
+class ServeTransport(TcpTransport):
+    """The blocking serve:// transport: resolve on open, then a plain TCP connection."""
+
+    def __init__(
+        self,
+        api_host: str,
+        api_port: int,
+        line: str,
+        *,
+        token: str | None = None,
+        connect_timeout: float = 5.0,
+        url: str = "",
+    ) -> None:
+        super().__init__(api_host, api_port, connect_timeout=connect_timeout, url=url)
+        self.api = (api_host, api_port)
+        self.line = line
+        self.token = token
+
+    def open(self) -> None:
+        if self.is_open:
+            return
+        self.host, self.port = resolve_line(*self.api, self.line, self.token, self.connect_timeout)
+        super().open()
+
+
+class AsyncServeTransport(AsyncTcpTransport):
+    """The asyncio serve:// transport."""
+
+    def __init__(
+        self,
+        api_host: str,
+        api_port: int,
+        line: str,
+        *,
+        token: str | None = None,
+        connect_timeout: float = 5.0,
+        url: str = "",
+    ) -> None:
+        super().__init__(api_host, api_port, connect_timeout=connect_timeout, url=url)
+        self.api = (api_host, api_port)
+        self.line = line
+        self.token = token
+
+    async def _connect(self) -> tuple[asyncio.StreamReader, asyncio.StreamWriter]:
+        self.host, self.port = await asyncio.to_thread(
+            resolve_line, *self.api, self.line, self.token, self.connect_timeout
+        )
+        return await super()._connect()

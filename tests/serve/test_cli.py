@@ -1,0 +1,127 @@
+"""``robostar serve``: config checks, bad input, and a real process serving N1 and metrics."""
+
+from __future__ import annotations
+
+import signal
+import socket
+import subprocess
+import sys
+import urllib.request
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+from robostar import Client
+from robostar.cli.app import cli
+from robostar.serve import ConfigError, load_config
+
+GOOD = """
+audit_path = "audit.jsonl"
+[lines.cell1]
+url = "sim://"
+poll_interval = 0.1
+channels = { 1 = "scara", 2 = "gantry" }
+[lines.cell2]
+url = "tcp://127.0.0.1:20000"
+[n1.lines]
+cell1 = "127.0.0.1:9301"
+"""
+
+
+def test_check_accepts_a_good_config(tmp_path: Path) -> None:
+    path = tmp_path / "serve.toml"
+    path.write_text(GOOD)
+    result = CliRunner().invoke(cli, ["serve", "--check", str(path)])
+    assert result.exit_code == 0, result.output
+    assert "OK (2 lines)" in result.output
+    config = load_config(path)
+    assert config.lines[0].channels == {1: "scara", 2: "gantry"}
+    assert config.faces["n1"] == {"lines": {"cell1": "127.0.0.1:9301"}}
+
+
+@pytest.mark.parametrize(
+    ("text", "key"),
+    [
+        ('[lines.cell1]\nurl = "sim://"\npoll_interval = -1\n', "lines.cell1.poll_interval"),
+        ('[lines.cell1]\nurl = "sim://"\npoll_interval = "fast"\n', "lines.cell1.poll_interval"),
+        ("[lines.cell1]\nbaudrate = 9600\n", "lines.cell1.url"),
+        ('[lines.cell1]\nurl = "sim://"\ncolour = 1\n', "lines.cell1.colour"),
+        ('[lines.cell1]\nurl = "sim://"\nio_ports = [7]\n', "lines.cell1.io_ports"),
+        ('[lines.cell1]\nurl = "sim://"\nchannels = { 5 = "x" }\n', "lines.cell1.channels"),
+        ('[lines."1bad"]\nurl = "sim://"\n', "lines.'1bad'"),
+        ("[nonsense]\nx = 1\n", "nonsense"),
+        ("lines = 3\n", "lines"),
+        ("[lines.cell1\n", "not valid TOML"),
+    ],
+)
+def test_a_bad_config_names_the_key(tmp_path: Path, text: str, key: str) -> None:
+    path = tmp_path / "bad.toml"
+    path.write_text(text)
+    with pytest.raises(ConfigError) as caught:
+        load_config(path)
+    assert key in str(caught.value)
+    result = CliRunner().invoke(cli, ["serve", "--check", str(path)])
+    assert result.exit_code != 0
+    assert key.lower() in result.output.lower()
+
+
+def test_bad_command_line_is_refused_before_anything_opens() -> None:
+    runner = CliRunner()
+    result = runner.invoke(cli, ["serve", "--line", "nourl"])
+    assert result.exit_code != 0 and "NAME=URL" in result.output
+    result = runner.invoke(cli, ["serve"])
+    assert result.exit_code != 0 and "--line" in result.output
+    result = runner.invoke(cli, ["serve", "--line", "a=sim://", "--allow-remote"])
+    assert result.exit_code != 0 and "--token" in result.output
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+def test_a_served_line_works_for_a_client_and_stops_on_sigterm(tmp_path: Path) -> None:
+    n1, metrics = _free_port(), _free_port()
+    audit = tmp_path / "audit.jsonl"
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "robostar.cli",
+            "serve",
+            "--line",
+            "cell1=sim://",
+            "--n1",
+            f"cell1=127.0.0.1:{n1}",
+            "--metrics",
+            f"127.0.0.1:{metrics}",
+            "--audit",
+            str(audit),
+        ],
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        assert proc.stderr is not None
+        seen = []
+        for line in proc.stderr:
+            seen.append(line)
+            if line.startswith("ready;"):
+                break
+        assert seen and seen[-1].startswith("ready;"), "".join(seen)
+        with Client(f"tcp://127.0.0.1:{n1}") as client:
+            client.set_speed(1, 55)
+            assert client.speed(1) == 55
+        with urllib.request.urlopen(f"http://127.0.0.1:{metrics}/metrics", timeout=5) as reply:
+            text = reply.read().decode()
+        assert 'robostar_line_up{line="cell1"} 1.0' in text
+        assert "robostar_line_exchanges_total" in text
+        proc.send_signal(signal.SIGTERM)
+        assert proc.wait(timeout=10) == 0
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert '"SetSpeed' in audit.read_text() or "SetSpeed" in audit.read_text()
