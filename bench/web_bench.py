@@ -38,11 +38,11 @@ def _percentile(values: list[float], share: float) -> float:
 
 def main(rounds: int = 60, pages: int = 50) -> dict[str, Any]:
     from playwright.sync_api import sync_playwright
-    from robostar.serve.config import LineConfig, ServeConfig
-    from robostar.serve.server import LineServer
 
+    from robostar.serve.config import LineConfig, ServeConfig
     from robostar.serve.faces.web import WebFace
     from robostar.serve.faces.web.users import Role, UserStore
+    from robostar.serve.server import LineServer
     from robostar.sim import SimConfig, VirtualController
     from robostar.sim.server import SimServer
 
@@ -58,7 +58,18 @@ def main(rounds: int = 60, pages: int = 50) -> dict[str, Any]:
         async def start() -> tuple[LineServer, WebFace]:
             poll = 0.05
             server = LineServer(
-                ServeConfig(lines=(LineConfig("cell1", sim.url, poll_interval=poll),), faces={})
+                ServeConfig(
+                    lines=(
+                        LineConfig(
+                            "cell1",
+                            sim.url,
+                            poll_interval=poll,
+                            slow_interval=poll,
+                            io_ports=(0, 1),
+                        ),
+                    ),
+                    faces={},
+                )
             )
             await server.start()
             face = WebFace(server, {"listen": "127.0.0.1:0", "users": str(users)})

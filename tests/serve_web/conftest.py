@@ -13,12 +13,12 @@ import pytest
 
 pytest.importorskip("starlette", reason="the web face needs the 'web' extra")
 
-from robostar.serve.config import LineConfig, ServeConfig
-from robostar.serve.server import LineServer
 from web_harness import CHROMIUM, PASSWORDS, ROLES, Stack
 
+from robostar.serve.config import LineConfig, ServeConfig
 from robostar.serve.faces.web import WebFace
 from robostar.serve.faces.web.users import UserStore
+from robostar.serve.server import LineServer
 from robostar.sim import SimConfig, VirtualController
 from robostar.sim.server import SimServer
 
@@ -43,7 +43,11 @@ def stack(users_file: Path, tmp_path_factory: pytest.TempPathFactory) -> Iterato
 
     async def start() -> tuple[LineServer, WebFace]:
         config = ServeConfig(
-            lines=(LineConfig("cell1", sim.url, poll_interval=0.05),),
+            lines=(
+                LineConfig(
+                    "cell1", sim.url, poll_interval=0.05, slow_interval=0.1, io_ports=(0, 1, 2, 3)
+                ),
+            ),
             faces={},
             audit_path=str(audit_path),
         )
@@ -70,6 +74,17 @@ def stack(users_file: Path, tmp_path_factory: pytest.TempPathFactory) -> Iterato
         sim.close()
 
 
+@pytest.fixture(autouse=True)
+def free_lease(request: pytest.FixtureRequest) -> Iterator[None]:
+    """Each test starts with nobody holding the line (a lease lasts 30 s otherwise)."""
+    yield
+    if "stack" in request.fixturenames:
+        stack: Stack = request.getfixturevalue("stack")
+        holder = stack.line.lease.holder
+        if holder is not None:
+            stack.loop.call_soon_threadsafe(stack.line.lease.release, holder.who)
+
+
 @pytest.fixture
 def client(stack: Stack) -> Iterator[httpx.Client]:
     with httpx.Client(base_url=stack.url, timeout=10.0) as http:
@@ -77,7 +92,7 @@ def client(stack: Stack) -> Iterator[httpx.Client]:
 
 
 @pytest.fixture(scope="module")
-def browser() -> Iterator[Any]:
+def chromium() -> Iterator[Any]:
     sync_api = pytest.importorskip("playwright.sync_api")
     if not Path(CHROMIUM).exists():
         pytest.skip("Debian's chromium is not installed (apt-get install chromium)")

@@ -45,7 +45,7 @@ def test_login_is_rate_limited(stack: Stack) -> None:
         token = csrf_of(http.get("/login").text)
         texts = [
             http.post(
-                "/login", data={"csrf_token": token, "username": "olga", "password": "nope-nope"}
+                "/login", data={"csrf_token": token, "username": "mallory", "password": "nope-nope"}
             ).text
             for _ in range(6)
         ]
@@ -82,9 +82,12 @@ def test_an_operator_switches_the_servo_and_it_is_audited(stack: Stack) -> None:
         body["on"] = False
         answer = http.post("/line/cell1/action", json=body, headers={"x-csrf-token": token})
         assert answer.status_code == 200, answer.text
+        released = http.post("/line/cell1/release", headers={"x-csrf-token": token})
+        assert released.json() == {"ok": True, "released": True}
+    assert stack.line.lease.holder is None
     assert not stack.in_sim(lambda c: c.model.channels[0].servo)
     entries = [json.loads(text) for text in stack.audit_path.read_text().splitlines()]
-    servo = [e for e in entries if "DB" in json.dumps(e) and "olga" in json.dumps(e)]
+    servo = [e for e in entries if e["what"].startswith("Servo(") and e["who"] == "olga"]
     assert len(servo) >= 2
 
 

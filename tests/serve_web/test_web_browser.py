@@ -11,12 +11,10 @@ from urllib.parse import urlsplit
 import pytest
 from web_harness import PASSWORDS, Stack
 
-pytestmark = pytest.mark.browser
-
 
 @pytest.fixture
-def page(browser: Any, stack: Stack) -> Iterator[Any]:
-    context = browser.new_context(base_url=stack.url)
+def page(chromium: Any, stack: Stack) -> Iterator[Any]:
+    context = chromium.new_context(base_url=stack.url)
     tab = context.new_page()
     tab.set_default_timeout(10_000)
     try:
@@ -119,9 +117,9 @@ def test_a_frozen_browser_does_not_slow_the_others(page: Any, stack: Stack) -> N
     frozen.sendall(f"GET /events HTTP/1.1\r\nHost: {host}:{port}\r\n\r\n".encode())
     try:
         page.goto("/line/cell1")
-        contact = page.locator('[data-key="cell1/io/in/3"] [data-contact="7"]')
+        contact = page.locator('[data-key="cell1/io/in/2"] [data-contact="7"]')
         for on in (True, False, True, False):  # the frozen reader's buffers fill meanwhile
-            stack.in_sim(lambda c, on=on: c.model.set_input(3, 7, on))
+            stack.in_sim(lambda c, on=on: c.model.set_input(2, 7, on))
             expect(page)(contact).to_have_class(f"contact {'on' if on else 'off'}", timeout=5_000)
     finally:
         frozen.close()

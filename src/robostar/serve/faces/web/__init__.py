@@ -24,9 +24,8 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from robostar.serve.server import LineServer
-
 from robostar.errors import UsageError
+from robostar.serve.server import LineServer
 
 __all__ = ["DEFAULT_LISTEN", "WebFace", "create"]
 

@@ -21,9 +21,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from robostar.serve.lease import Who
-from robostar.serve.line import Line
-from robostar.serve.server import LineServer
 from starlette.applications import Starlette
 from starlette.middleware import Middleware
 from starlette.middleware.sessions import SessionMiddleware
@@ -56,8 +53,12 @@ from robostar.serve.faces.web.auth import (
 )
 from robostar.serve.faces.web.jog import JogSession
 from robostar.serve.faces.web.users import Role, UserStore
-from robostar.serve.faces.web.views import axis_unit, change_json, jsonable, sample_json
-from robostar.types import CoordSystem, JobFile, PointFile, PositionKind, RobotType
+from robostar.serve.faces.web.views import axis_unit, change_json, sample_json
+from robostar.serve.jsonable import jsonable
+from robostar.serve.lease import Who
+from robostar.serve.line import Line
+from robostar.serve.server import LineServer
+from robostar.types import CoordSystem, FileRecord, JobFile, PointFile, PositionKind, RobotType
 
 __all__ = ["WebSettings", "build_app"]
 
@@ -89,6 +90,7 @@ def build_app(server: LineServer, settings: WebSettings) -> Starlette:
     """The dashboard of ``server``'s lines."""
     templates = Jinja2Templates(directory=str(_HERE / "templates"))
     templates.env.globals["csrf_field"] = CSRF_FIELD
+    templates.env.filters["clock"] = _clock
     limiter = LoginLimiter()
     users = settings.users
 
@@ -99,11 +101,11 @@ def build_app(server: LineServer, settings: WebSettings) -> Starlette:
             raise _Forbidden(404, f"no line named {name!r}")
         return line
 
-    def page(request: Request, name: str, **context: Any) -> HTMLResponse:
+    def page(request: Request, template: str, /, **context: Any) -> HTMLResponse:
         account = account_of(request, users)
         return templates.TemplateResponse(
             request,
-            name,
+            template,
             {
                 "account": account,
                 "lines": list(server.lines.values()),
@@ -136,10 +138,10 @@ def build_app(server: LineServer, settings: WebSettings) -> Starlette:
     async def files(request: Request) -> Response:
         line = line_of(request)
         channel = _int(request.query_params.get("channel", "1"), "channel", 1, 3)
-        listing: list[Any] = []
+        listing: tuple[FileRecord, ...] = ()
         error = None
         try:
-            listing = list(await line.read(ListFiles(channel, "*")))
+            listing = await line.read(ListFiles(channel, "*"))
         except RobostarError as exc:
             error = str(exc)
         return page(request, "files.html", line=line, channel=channel, files=listing, error=error)
@@ -259,22 +261,29 @@ def build_app(server: LineServer, settings: WebSettings) -> Starlette:
         result = await run(line, command, account)
         return JSONResponse({"ok": True, "action": name, "result": jsonable(result)})
 
+    async def release(request: Request) -> Response:
+        """Give the controller's lease back (only its holder can)."""
+        line = line_of(request)
+        account = await guard(request, Role.OPERATOR)
+        released = line.lease.release(Who(account.name, "web"))
+        return JSONResponse({"ok": True, "released": released})
+
     # -- sign in and out -----------------------------------------------------------------------
     async def login_page(request: Request) -> Response:
         return page(request, "login.html", error=None)
 
     async def login(request: Request) -> Response:
         account = account_of(request, users)
-        address = request.client.host if request.client else "?"
         form = await request.form()
+        name = str(form.get("username", ""))
+        # per address and name: one user's lock-out does not lock out the others at that address
+        address = f"{request.client.host if request.client else '?'}|{name}"
         if not await csrf_ok(request, account):
             return page(request, "login.html", error="The form is stale: reload and try again.")
         wait = limiter.blocked_for(address)
         if wait > 0:
             return page(request, "login.html", error=f"Too many attempts: wait {wait:.0f} s.")
-        user = await asyncio.to_thread(
-            users.verify, str(form.get("username", "")), str(form.get("password", ""))
-        )
+        user = await asyncio.to_thread(users.verify, name, str(form.get("password", "")))
         if user is None:
             limiter.failed(address)
             return page(request, "login.html", error="Wrong name or password.")
@@ -319,6 +328,7 @@ def build_app(server: LineServer, settings: WebSettings) -> Starlette:
         Route("/line/{line}", controller),
         Route("/line/{line}/snapshot", snapshot),
         Route("/line/{line}/action", action, methods=["POST"]),
+        Route("/line/{line}/release", release, methods=["POST"]),
         Route("/line/{line}/files", files),
         Route("/line/{line}/files/upload", upload_preview, methods=["POST"]),
         Route("/line/{line}/files/upload/confirm", upload_confirm, methods=["POST"]),
@@ -387,6 +397,13 @@ _ACTIONS: dict[str, _Action] = {
 
 
 # -- helpers ---------------------------------------------------------------------------------
+def _clock(at: object) -> object:
+    """An audit entry's ``time.time()`` as local date and time."""
+    if isinstance(at, int | float):
+        return time.strftime("%Y-%m-%d %H:%M:%S", time.localtime(at))
+    return at
+
+
 def _int(value: object, name: str, low: int, high: int) -> int:
     if isinstance(value, bool):
         raise _Forbidden(400, f"{name}: a whole number {low}-{high}")

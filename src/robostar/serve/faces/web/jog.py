@@ -15,11 +15,10 @@ import logging
 import time
 from typing import Any, Protocol
 
-from robostar.serve.lease import Who
-from robostar.serve.line import Line
-
 from robostar.commands.motion import JogContinue, JogStart, JogStop
 from robostar.errors import RobostarError
+from robostar.serve.lease import Who
+from robostar.serve.line import Line
 from robostar.types import JogDirection, MotionType
 
 __all__ = ["KEEPALIVE_EVERY", "SILENCE", "JogSession"]

@@ -36,11 +36,11 @@ PAGES = {
 
 def main(out: str = "docs/img", chromium: str = "/usr/bin/chromium") -> None:
     from playwright.sync_api import sync_playwright
-    from robostar.serve.config import LineConfig, ServeConfig
-    from robostar.serve.server import LineServer
 
+    from robostar.serve.config import LineConfig, ServeConfig
     from robostar.serve.faces.web import WebFace
     from robostar.serve.faces.web.users import Role, UserStore
+    from robostar.serve.server import LineServer
     from robostar.sim import SimConfig, VirtualController
     from robostar.sim.server import SimServer
 

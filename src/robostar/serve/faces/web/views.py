@@ -2,34 +2,13 @@
 
 from __future__ import annotations
 
-import dataclasses
-import enum
-import math
 from typing import Any
 
+from robostar.serve.jsonable import jsonable
 from robostar.serve.model import Quality, Sample
-
-from robostar.protocol.fields import FileName
 from robostar.types import PositionKind, RobotType
 
-__all__ = ["axis_unit", "change_json", "jsonable", "sample_json"]
-
-
-def jsonable(value: Any) -> Any:
-    """A model value as JSON data: dataclasses as objects, enums by name, tuples as lists."""
-    if isinstance(value, FileName):
-        return str(value)
-    if isinstance(value, enum.Enum):
-        return value.name.lower()
-    if dataclasses.is_dataclass(value) and not isinstance(value, type):
-        return {f.name: jsonable(getattr(value, f.name)) for f in dataclasses.fields(value)}
-    if isinstance(value, dict):
-        return {str(k): jsonable(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [jsonable(v) for v in value]
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
+__all__ = ["axis_unit", "change_json", "sample_json"]
 
 
 def sample_json(sample: Sample | None) -> dict[str, Any]:
