@@ -518,13 +518,20 @@ def _detail(line: Line) -> dict[str, Any]:
 
 def _health(line: Line) -> dict[str, Any]:
     health = line.health
-    return {"name": line.name, "url": line.config.url, **jsonable(_public(health))}
-
-
-def _public(obj: object) -> dict[str, Any]:
-    if hasattr(obj, "__dataclass_fields__"):
-        return {k: getattr(obj, k) for k in obj.__dataclass_fields__}
-    return {k: v for k, v in vars(obj).items() if not k.startswith("_")}
+    latency = None if health.latency is None else f"{1000 * health.latency:.1f} ms"
+    age = health.poll_age
+    return {
+        "name": line.name,
+        "url": line.config.url,
+        "up": health.up,
+        "last error": health.last_error or "—",
+        "last exchange": latency or "—",
+        "exchanges": health.exchanges,
+        "errors": health.errors,
+        "reconnects": health.reconnects,
+        "last poll": "—" if age is None else f"{age:.1f} s ago",
+        "lease": str(line.lease.holder.who) if line.lease.holder else "free",
+    }
 
 
 def _audit_tail(path: str | None, count: int) -> list[dict[str, Any]]:
