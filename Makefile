@@ -4,7 +4,7 @@ VENV   ?= .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test lint check bench reliability docs package clean
+.PHONY: demo test lint check bench reliability docs package screenshots clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -37,6 +37,10 @@ package: $(STAMP)
 	rm -rf dist
 	$(BIN)/python -m build --quiet --outdir dist . >/dev/null
 	$(BIN)/python tools/check_dist.py dist
+
+# Pictures of every web dashboard page for docs/web.md (Playwright + Debian's chromium).
+screenshots: $(STAMP)
+	$(BIN)/python -m robostar.serve.faces.web.screenshots docs/img
 
 bench: $(STAMP)
 	$(BIN)/python -m pip install --quiet -e '.[dev,bench]'

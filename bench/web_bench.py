@@ -1,0 +1,177 @@
+"""Web dashboard figures: change-to-DOM latency, 50 browsers' streams, keepalive loss to BG.
+
+``python bench/web_bench.py`` starts a simulator on loopback, the line server in front of it with
+the web face, and measures with Playwright driving Debian's Chromium:
+
+1. latency from an input changing in the simulator to the page's DOM showing it (p50/p99);
+2. 50 open browser pages' event streams on one line: how many of them show a change, and when;
+3. time from the page's last jog keepalive to the simulator executing BG.
+
+Prints the figures (and writes ``bench/results/web.json``); nothing is asserted.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import statistics
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+if __package__ in (None, ""):
+    _root = Path(__file__).resolve().parent.parent
+    sys.path[:0] = [str(_root), str(_root / "src")]
+
+from robostar.serve.faces.web.screenshots import CHROMIUM_ARGS
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def _percentile(values: list[float], share: float) -> float:
+    ordered = sorted(values)
+    return ordered[min(len(ordered) - 1, int(share * len(ordered)))]
+
+
+def main(rounds: int = 60, pages: int = 50) -> dict[str, Any]:
+    from playwright.sync_api import sync_playwright
+
+    from robostar.serve.config import LineConfig, ServeConfig
+    from robostar.serve.faces.web import WebFace
+    from robostar.serve.faces.web.users import Role, UserStore
+    from robostar.serve.server import LineServer
+    from robostar.sim import SimConfig, VirtualController
+    from robostar.sim.server import SimServer
+
+    results: dict[str, Any] = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        users = Path(tmp) / "users.toml"
+        UserStore(users).add("bench", Role.OPERATOR, "bench-password")
+        controller = VirtualController(SimConfig(speedup=20.0))
+        sim = SimServer(controller).start()
+        loop = asyncio.new_event_loop()
+        threading.Thread(target=loop.run_forever, daemon=True).start()
+
+        async def start() -> tuple[LineServer, WebFace]:
+            poll = 0.05
+            server = LineServer(
+                ServeConfig(
+                    lines=(
+                        LineConfig(
+                            "cell1",
+                            sim.url,
+                            poll_interval=poll,
+                            slow_interval=poll,
+                            io_ports=(0, 1),
+                        ),
+                    ),
+                    faces={},
+                )
+            )
+            await server.start()
+            face = WebFace(server, {"listen": "127.0.0.1:0", "users": str(users)})
+            await face.start()
+            return server, face
+
+        server, face = asyncio.run_coroutine_threadsafe(start(), loop).result(30)
+
+        def set_input(on: bool) -> None:
+            with sim.lock:
+                controller.model.set_input(1, 4, on)
+            sim.wake()
+
+        with sync_playwright() as playwright:
+            browser = playwright.chromium.launch(
+                executable_path="/usr/bin/chromium", args=CHROMIUM_ARGS
+            )
+            page = browser.new_page(base_url=face.url)
+            page.goto("/line/cell1")
+            contact = page.locator('[data-key="cell1/io/in/1"] [data-contact="4"]')
+            contact.wait_for()
+            latencies = []
+            for i in range(rounds):
+                on = i % 2 == 0
+                start_at = time.perf_counter()
+                set_input(on)
+                page.wait_for_function(
+                    "([el, on]) => el.classList.contains(on ? 'on' : 'off')",
+                    arg=[contact.element_handle(), on],
+                    polling="raf",
+                )
+                latencies.append(time.perf_counter() - start_at)
+            results["change_to_dom_ms"] = {
+                "rounds": rounds,
+                "p50": 1000 * statistics.median(latencies),
+                "p99": 1000 * _percentile(latencies, 0.99),
+                "poll_interval_ms": 50,
+            }
+
+            context = browser.new_context(base_url=face.url)
+            tabs = [context.new_page() for _ in range(pages)]
+            for tab in tabs:
+                tab.goto("/line/cell1")
+                tab.wait_for_function(
+                    "() => window.robostarStream && window.robostarStream.readyState === 1"
+                )
+            set_input(False)
+            time.sleep(0.5)
+            start_at = time.perf_counter()
+            set_input(True)
+            shown = []
+            for tab in tabs:
+                tab.locator('[data-key="cell1/io/in/1"] [data-contact="4"].on').wait_for()
+                shown.append(time.perf_counter() - start_at)
+            results["streams"] = {
+                "pages": pages,
+                "pages_showing_the_change": len(shown),
+                "seconds_until_the_last_page_shows_it": max(shown),
+            }
+            context.close()
+
+            page.goto("/login")
+            page.fill("input[name=username]", "bench")
+            page.fill("input[name=password]", "bench-password")
+            page.click("form.login button[type=submit]")
+            page.wait_for_url("**/")
+            with sim.lock:
+                controller.model.channels[0].servo = True
+            gaps = []
+            for _ in range(10):
+                page.goto("/line/cell1/jog")
+                before = controller.executions["BG"]
+                page.locator('.jog-btn[data-axis="1"][data-direction="+"]').dispatch_event(
+                    "pointerdown"
+                )
+                page.locator("#jog-state").filter(has_text="Moving").wait_for()
+                time.sleep(0.3)
+                stopped_at = time.perf_counter()
+                page.evaluate("window.robostarJog.stopKeepalive()")
+                while controller.executions["BG"] == before:
+                    time.sleep(0.002)
+                gaps.append(time.perf_counter() - stopped_at)
+            results["keepalive_loss_to_bg_ms"] = {
+                "runs": len(gaps),
+                "p50": 1000 * statistics.median(gaps),
+                "max": 1000 * max(gaps),
+                "silence_limit_ms": 300,
+            }
+            browser.close()
+
+        async def stop() -> None:
+            await face.stop()
+            await server.stop()
+
+        asyncio.run_coroutine_threadsafe(stop(), loop).result(30)
+        sim.close()
+    out = ROOT / "bench" / "results" / "web.json"
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(json.dumps(results, indent=2))
+    print(json.dumps(results, indent=2))
+    return results
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,625 @@
+"""The dashboard as a Starlette application: pages, actions, the live event stream, the jog socket.
+
+Everything is server-rendered (Jinja2) from the line server's model, and kept live by one
+Server-Sent Events stream per browser (``/events``), fed by a bounded subscription of its own, so
+a slow or frozen browser never slows the others or the line. State changes are POSTs that carry
+the session's CSRF token and an explicit confirmation, need a role, and go through the line
+server (lease and audit). Assets are served by the package: no CDN, plants are offline.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import io
+import json
+import secrets
+import time
+import zipfile
+from collections.abc import AsyncIterator, Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from starlette.applications import Starlette
+from starlette.middleware import Middleware
+from starlette.middleware.sessions import SessionMiddleware
+from starlette.requests import Request
+from starlette.responses import (
+    HTMLResponse,
+    JSONResponse,
+    RedirectResponse,
+    Response,
+    StreamingResponse,
+)
+from starlette.routing import Mount, Route, WebSocketRoute
+from starlette.staticfiles import StaticFiles
+from starlette.templating import Jinja2Templates
+from starlette.websockets import WebSocket, WebSocketDisconnect
+
+from robostar.commands.base import Command
+from robostar.commands.control import EmergencyStop, ResetAlarms, SetSpeed, StartJob, StopJob
+from robostar.commands.files import DownloadFile, ListFiles, UploadFile
+from robostar.commands.io import SetOutput
+from robostar.commands.job import Servo
+from robostar.errors import RobostarError, UsageError
+from robostar.protocol.fields import FileName
+from robostar.serve.faces.web.auth import (
+    CSRF_FIELD,
+    Account,
+    LoginLimiter,
+    account_of,
+    csrf_ok,
+)
+from robostar.serve.faces.web.jog import JogSession
+from robostar.serve.faces.web.users import Role, UserStore
+from robostar.serve.faces.web.views import axis_unit, change_json, sample_json
+from robostar.serve.jsonable import jsonable
+from robostar.serve.lease import Who
+from robostar.serve.line import Line
+from robostar.serve.server import LineServer
+from robostar.types import CoordSystem, FileRecord, JobFile, PointFile, PositionKind, RobotType
+
+__all__ = ["WebSettings", "build_app"]
+
+_HERE = Path(__file__).parent
+MAX_UPLOAD = 256 * 1024
+"""Largest file accepted for upload (a 2000-step job is well under this)."""
+EVENT_KEEPALIVE = 15.0
+"""Seconds between SSE comments on a quiet stream, so proxies keep it open."""
+
+
+@dataclass(frozen=True, slots=True)
+class WebSettings:
+    """How the dashboard runs: its users, its cookie secret, and whether cookies need HTTPS."""
+
+    users: UserStore
+    secret: str
+    https_only: bool = False
+    audit_path: str | None = None
+
+
+class _Forbidden(Exception):
+    def __init__(self, status: int, message: str) -> None:
+        super().__init__(message)
+        self.status = status
+        self.message = message
+
+
+def build_app(server: LineServer, settings: WebSettings) -> Starlette:
+    """The dashboard of ``server``'s lines."""
+    templates = Jinja2Templates(directory=str(_HERE / "templates"))
+    templates.env.globals["csrf_field"] = CSRF_FIELD
+    templates.env.filters["clock"] = _clock
+    limiter = LoginLimiter()
+    users = settings.users
+
+    def line_of(request: Request | WebSocket) -> Line:
+        name = request.path_params["line"]
+        line = server.lines.get(name)
+        if line is None:
+            raise _Forbidden(404, f"no line named {name!r}")
+        return line
+
+    def page(request: Request, template: str, /, **context: Any) -> HTMLResponse:
+        account = account_of(request, users)
+        return templates.TemplateResponse(
+            request,
+            template,
+            {
+                "account": account,
+                "lines": list(server.lines.values()),
+                "logins": len(users) > 0,
+                **context,
+            },
+        )
+
+    async def guard(request: Request, role: Role) -> Account:
+        """The account of a state-changing request, or _Forbidden: CSRF first, then the role."""
+        account = account_of(request, users)
+        if not await csrf_ok(request, account):
+            raise _Forbidden(403, "the form is stale or forged (CSRF token missing or wrong)")
+        if not account.may(role):
+            raise _Forbidden(403, f"this needs the {role.name.lower()} role; sign in first")
+        return account
+
+    async def run(line: Line, command: Command[Any], account: Account) -> Any:
+        who = Who(account.name, "web")
+        return await line.execute(command, who=who, implicit_lease=True)
+
+    # -- pages ---------------------------------------------------------------------------------
+    async def overview(request: Request) -> Response:
+        return page(request, "overview.html", cards=[_card(line) for line in server.lines.values()])
+
+    async def controller(request: Request) -> Response:
+        line = line_of(request)
+        return page(request, "controller.html", line=line, card=_card(line), detail=_detail(line))
+
+    async def files(request: Request) -> Response:
+        line = line_of(request)
+        channel = _int(request.query_params.get("channel", "1"), "channel", 1, 3)
+        listing: tuple[FileRecord, ...] = ()
+        error = None
+        try:
+            listing = await line.read(ListFiles(channel, "*"))
+        except RobostarError as exc:
+            error = str(exc)
+        return page(request, "files.html", line=line, channel=channel, files=listing, error=error)
+
+    async def file_view(request: Request) -> Response:
+        line = line_of(request)
+        channel, name = _file_params(request)
+        coords = CoordSystem.XY if request.query_params.get("coords") == "xy" else CoordSystem.ANGLE
+        content = await line.read(DownloadFile(channel, name, coords))
+        return page(
+            request,
+            "file.html",
+            line=line,
+            channel=channel,
+            name=str(name),
+            job=content if isinstance(content, JobFile) else None,
+            points=content if isinstance(content, PointFile) else None,
+            coords=coords.name.lower(),
+        )
+
+    async def file_download(request: Request) -> Response:
+        line = line_of(request)
+        channel, name = _file_params(request)
+        content = await line.read(DownloadFile(channel, name, CoordSystem.ANGLE))
+        text = _file_text(content)
+        return Response(
+            text,
+            media_type="text/plain; charset=utf-8",
+            headers={"content-disposition": f'attachment; filename="{name}"'},
+        )
+
+    async def backup_zip(request: Request) -> Response:
+        line = line_of(request)
+        buffer = io.BytesIO()
+        with zipfile.ZipFile(buffer, "w", zipfile.ZIP_DEFLATED) as archive:
+            for channel in _channels(line):
+                for record in await line.read(ListFiles(channel, "*")):
+                    name = FileName.parse(record.name)
+                    content = await line.read(DownloadFile(channel, name, CoordSystem.ANGLE))
+                    archive.writestr(f"ch{channel}/{name}", _file_text(content))
+        stamp = time.strftime("%Y%m%d-%H%M%S")
+        return Response(
+            buffer.getvalue(),
+            media_type="application/zip",
+            headers={"content-disposition": f'attachment; filename="{line.name}-{stamp}.zip"'},
+        )
+
+    async def upload_preview(request: Request) -> Response:
+        line = line_of(request)
+        await guard(request, Role.ENGINEER)
+        form = await request.form()
+        channel = _int(str(form.get("channel", "1")), "channel", 1, 3)
+        upload = form.get("file")
+        if upload is None or isinstance(upload, str):
+            raise _Forbidden(400, "choose a file to upload")
+        raw = await upload.read(MAX_UPLOAD + 1)
+        if len(raw) > MAX_UPLOAD:
+            raise _Forbidden(400, f"the file is over {MAX_UPLOAD // 1024} KiB")
+        try:
+            text = raw.decode("ascii")
+        except UnicodeDecodeError:
+            raise _Forbidden(400, "the controller holds ASCII text only") from None
+        name = _file_name(str(form.get("name") or upload.filename or ""))
+        lines = tuple(text.splitlines())
+        command = UploadFile(
+            channel, name, _int(str(form.get("job_number", "0")), "job", 0, 200), lines
+        )
+        command.encode()  # every line checked now: a bad one is refused before the preview
+        return page(
+            request,
+            "upload.html",
+            line=line,
+            channel=channel,
+            name=str(name),
+            job_number=command.job_number,
+            lines=lines,
+            content=text,
+        )
+
+    async def upload_confirm(request: Request) -> Response:
+        line = line_of(request)
+        account = await guard(request, Role.ENGINEER)
+        form = await request.form()
+        if form.get("confirmed") != "yes":
+            raise _Forbidden(428, "confirm the upload on its preview page")
+        channel = _int(str(form.get("channel", "1")), "channel", 1, 3)
+        name = _file_name(str(form.get("name", "")))
+        job_number = _int(str(form.get("job_number", "0")), "job", 0, 200)
+        lines = tuple(str(form.get("content", "")).splitlines())
+        await run(line, UploadFile(channel, name, job_number, lines), account)
+        return RedirectResponse(f"/line/{line.name}/files?channel={channel}", status_code=303)
+
+    async def jog_page(request: Request) -> Response:
+        line = line_of(request)
+        return page(request, "jog.html", line=line, card=_card(line))
+
+    async def audit(request: Request) -> Response:
+        return page(request, "audit.html", entries=_audit_tail(settings.audit_path, 200))
+
+    async def health(request: Request) -> Response:
+        return page(
+            request, "health.html", health=[_health(line) for line in server.lines.values()]
+        )
+
+    # -- actions -------------------------------------------------------------------------------
+    async def action(request: Request) -> Response:
+        line = line_of(request)
+        body = await _json_body(request)
+        name = str(body.get("action", ""))
+        spec = _ACTIONS.get(name)
+        if spec is None:
+            raise _Forbidden(400, f"unknown action {name!r}")
+        account = await guard(request, spec.role)
+        if body.get("confirmed") is not True:
+            raise _Forbidden(428, f"{name}: confirm it first")
+        command = spec.build(body)
+        result = await run(line, command, account)
+        return JSONResponse({"ok": True, "action": name, "result": jsonable(result)})
+
+    async def release(request: Request) -> Response:
+        """Give the controller's lease back (only its holder can)."""
+        line = line_of(request)
+        account = await guard(request, Role.OPERATOR)
+        released = line.lease.release(Who(account.name, "web"))
+        return JSONResponse({"ok": True, "released": released})
+
+    # -- sign in and out -----------------------------------------------------------------------
+    async def login_page(request: Request) -> Response:
+        return page(request, "login.html", error=None)
+
+    async def login(request: Request) -> Response:
+        account = account_of(request, users)
+        form = await request.form()
+        name = str(form.get("username", ""))
+        # per address and name: one user's lock-out does not lock out the others at that address
+        address = f"{request.client.host if request.client else '?'}|{name}"
+        if not await csrf_ok(request, account):
+            return page(request, "login.html", error="The form is stale: reload and try again.")
+        wait = limiter.blocked_for(address)
+        if wait > 0:
+            return page(request, "login.html", error=f"Too many attempts: wait {wait:.0f} s.")
+        user = await asyncio.to_thread(users.verify, name, str(form.get("password", "")))
+        if user is None:
+            limiter.failed(address)
+            return page(request, "login.html", error="Wrong name or password.")
+        limiter.succeeded(address)
+        request.session.clear()
+        request.session["user"] = user.name
+        request.session["csrf"] = secrets.token_urlsafe(32)  # a new session, a new token
+        return RedirectResponse("/", status_code=303)
+
+    async def logout(request: Request) -> Response:
+        account = account_of(request, users)
+        if await csrf_ok(request, account):
+            request.session.clear()
+        return RedirectResponse("/", status_code=303)
+
+    # -- live ----------------------------------------------------------------------------------
+    async def events(request: Request) -> Response:
+        wanted = request.query_params.get("line")
+        lines = [line for line in server.lines.values() if wanted in (None, line.name)]
+        return StreamingResponse(
+            _event_stream(request, lines),
+            media_type="text/event-stream",
+            headers={"cache-control": "no-store", "x-accel-buffering": "no"},
+        )
+
+    async def snapshot(request: Request) -> Response:
+        line = line_of(request)
+        values = {key: sample_json(sample) for key, sample in line.model.snapshot().items()}
+        return JSONResponse({"line": line.name, "values": values})
+
+    async def jog_socket(websocket: WebSocket) -> None:
+        await _jog_socket(websocket, server, users)
+
+    routes = [
+        Route("/", overview),
+        Route("/login", login_page, methods=["GET"]),
+        Route("/login", login, methods=["POST"]),
+        Route("/logout", logout, methods=["POST"]),
+        Route("/events", events),
+        Route("/audit", audit),
+        Route("/health", health),
+        Route("/line/{line}", controller),
+        Route("/line/{line}/snapshot", snapshot),
+        Route("/line/{line}/action", action, methods=["POST"]),
+        Route("/line/{line}/release", release, methods=["POST"]),
+        Route("/line/{line}/files", files),
+        Route("/line/{line}/files/upload", upload_preview, methods=["POST"]),
+        Route("/line/{line}/files/upload/confirm", upload_confirm, methods=["POST"]),
+        Route("/line/{line}/files/{channel:int}/{name}", file_view),
+        Route("/line/{line}/files/{channel:int}/{name}/download", file_download),
+        Route("/line/{line}/backup.zip", backup_zip),
+        Route("/line/{line}/jog", jog_page),
+        WebSocketRoute("/line/{line}/jog/ws", jog_socket),
+        Mount("/static", StaticFiles(directory=str(_HERE / "static")), name="static"),
+    ]
+    middleware = [
+        Middleware(
+            SessionMiddleware,
+            secret_key=settings.secret,
+            session_cookie="robostar_session",
+            same_site="strict",
+            https_only=settings.https_only,
+            max_age=12 * 3600,
+        ),
+    ]
+    app = Starlette(
+        routes=routes,
+        middleware=middleware,
+        exception_handlers={
+            _Forbidden: _forbidden_response,
+            RobostarError: _robostar_error_response,
+        },
+    )
+    return app
+
+
+# -- actions ---------------------------------------------------------------------------------
+@dataclass(frozen=True, slots=True)
+class _Action:
+    role: Role
+    build: Callable[[dict[str, Any]], Command[Any]]
+
+
+def _channel(body: dict[str, Any]) -> int:
+    return _int(body.get("channel"), "channel", 1, 3)
+
+
+def _on(body: dict[str, Any]) -> bool:
+    value = body.get("on")
+    if not isinstance(value, bool):
+        raise _Forbidden(400, "on: true or false")
+    return value
+
+
+_ACTIONS: dict[str, _Action] = {
+    "servo": _Action(Role.OPERATOR, lambda b: Servo(_channel(b), _on(b))),
+    "job_start": _Action(Role.OPERATOR, lambda b: StartJob(_channel(b))),
+    "job_stop": _Action(Role.OPERATOR, lambda b: StopJob(_channel(b))),
+    "reset_alarms": _Action(Role.OPERATOR, lambda b: ResetAlarms()),
+    "emergency_stop": _Action(Role.OPERATOR, lambda b: EmergencyStop()),
+    "speed": _Action(
+        Role.OPERATOR, lambda b: SetSpeed(_channel(b), _int(b.get("speed"), "speed", 0, 1000))
+    ),
+    "output": _Action(
+        Role.OPERATOR,
+        lambda b: SetOutput(
+            _int(b.get("port"), "port", 0, 4), _int(b.get("contact"), "contact", 0, 15), _on(b)
+        ),
+    ),
+}
+
+
+# -- helpers ---------------------------------------------------------------------------------
+def _clock(at: object) -> object:
+    """An audit entry's ``time.time()`` as local date and time."""
+    if isinstance(at, int | float):
+        return time.strftime("%Y-%m-%d %H:%M:%S", time.localtime(at))
+    return at
+
+
+def _int(value: object, name: str, low: int, high: int) -> int:
+    if isinstance(value, bool):
+        raise _Forbidden(400, f"{name}: a whole number {low}-{high}")
+    try:
+        number = int(str(value).strip())
+    except ValueError:
+        raise _Forbidden(400, f"{name}: a whole number {low}-{high}, not {value!r}") from None
+    if not low <= number <= high:
+        raise _Forbidden(400, f"{name}: {number} is not in {low}-{high}")
+    return number
+
+
+def _file_name(text: str) -> FileName:
+    try:
+        name = FileName.parse(text.strip())
+        return name.check("", "name")
+    except UsageError as exc:
+        raise _Forbidden(400, str(exc)) from None
+
+
+def _file_params(request: Request) -> tuple[int, FileName]:
+    channel = _int(request.path_params["channel"], "channel", 1, 3)
+    return channel, _file_name(request.path_params["name"])
+
+
+def _file_text(content: JobFile | PointFile) -> str:
+    if isinstance(content, JobFile):
+        return "\n".join(content.lines) + "\n"
+    from robostar.client.files import point_lines
+
+    return "\n".join(point_lines(content)) + "\n"
+
+
+async def _json_body(request: Request) -> dict[str, Any]:
+    try:
+        body = await request.json()
+    except ValueError:
+        raise _Forbidden(400, "the body is not JSON") from None
+    if not isinstance(body, dict):
+        raise _Forbidden(400, "the body must be a JSON object")
+    return body
+
+
+def _channels(line: Line) -> list[int]:
+    info = line.model.get("info")
+    if info is not None and getattr(info.value, "channels", None):
+        return [c.channel for c in info.value.channels]
+    return [1, 2, 3]
+
+
+def _robot(line: Line, channel: int) -> RobotType | None:
+    info = line.model.get("info")
+    if info is None:
+        return None
+    for entry in getattr(info.value, "channels", ()):
+        if entry.channel == channel:
+            robot: RobotType = entry.robot_type
+            return robot
+    return None
+
+
+def _card(line: Line) -> dict[str, Any]:
+    """What an overview card shows of a line: online, and per channel the lamps and the job."""
+    model = line.model
+    names = getattr(line.config, "channels", {}) or {}
+    channels = []
+    for channel in _channels(line):
+        prefix = f"ch{channel}/"
+        channels.append(
+            {
+                "number": channel,
+                "name": names.get(channel, f"channel {channel}"),
+                "status": sample_json(model.get(prefix + "status")),
+                "job": sample_json(model.get(prefix + "job")),
+                "step": sample_json(model.get(prefix + "step")),
+                "speed": sample_json(model.get(prefix + "speed")),
+            }
+        )
+    return {
+        "name": line.name,
+        "online": sample_json(model.get("online")),
+        "alarms": sample_json(model.get("alarms")),
+        "channels": channels,
+    }
+
+
+def _detail(line: Line) -> dict[str, Any]:
+    """The controller page beyond the card: positions with units, I/O, alarm history."""
+    model = line.model
+    axes = {}
+    for channel in _channels(line):
+        robot = _robot(line, channel)
+        position = model.get(f"ch{channel}/position")
+        values = list(position.value.axes) if position is not None else []
+        axes[channel] = [
+            {"axis": i + 1, "value": v, "unit": axis_unit(PositionKind.XY, i + 1, robot)}
+            for i, v in enumerate(values)
+        ]
+    ports = []
+    for port in range(5):
+        inputs, outputs = model.get(f"io/in/{port}"), model.get(f"io/out/{port}")
+        if inputs is None and outputs is None:
+            continue
+        ports.append({"port": port, "in": sample_json(inputs), "out": sample_json(outputs)})
+    return {
+        "info": sample_json(model.get("info")),
+        "axes": axes,
+        "ports": ports,
+        "history": sample_json(model.get("alarm_history")),
+    }
+
+
+def _health(line: Line) -> dict[str, Any]:
+    health = line.health
+    latency = None if health.latency is None else f"{1000 * health.latency:.1f} ms"
+    age = health.poll_age
+    return {
+        "name": line.name,
+        "url": line.config.url,
+        "up": health.up,
+        "last error": health.last_error or "—",
+        "last exchange": latency or "—",
+        "exchanges": health.exchanges,
+        "errors": health.errors,
+        "reconnects": health.reconnects,
+        "last poll": "—" if age is None else f"{age:.1f} s ago",
+        "lease": str(line.lease.holder.who) if line.lease.holder else "free",
+    }
+
+
+def _audit_tail(path: str | None, count: int) -> list[dict[str, Any]]:
+    """The last ``count`` audit entries, newest first (the file is JSON lines)."""
+    if path is None or not Path(path).exists():
+        return []
+    with open(path, "rb") as handle:
+        handle.seek(0, 2)
+        size = handle.tell()
+        handle.seek(max(0, size - 256 * 1024))
+        tail = handle.read().decode("utf-8", "replace").splitlines()
+    entries = []
+    for text in reversed(tail[-count:]):
+        with contextlib.suppress(ValueError):
+            entry = json.loads(text)
+            if isinstance(entry, dict):
+                entries.append(entry)
+    return entries
+
+
+async def _event_stream(request: Request, lines: list[Line]) -> AsyncIterator[str]:
+    """One browser's stream: a first snapshot, then every change of its lines' models."""
+    subscriptions = [line.model.subscribe(maxsize=500) for line in lines]
+    merged = asyncio.Queue[str](maxsize=1000)
+
+    async def pump(line: Line, subscription: Any) -> None:
+        async for change in subscription:
+            text = json.dumps(change_json(line.name, change.key, change.sample))
+            await merged.put(text)
+
+    pairs = zip(lines, subscriptions, strict=True)
+    tasks = [asyncio.create_task(pump(line, sub)) for line, sub in pairs]
+    try:
+        for line in lines:
+            for key, sample in line.model.snapshot().items():
+                yield f"event: change\ndata: {json.dumps(change_json(line.name, key, sample))}\n\n"
+        while True:
+            try:
+                text = await asyncio.wait_for(merged.get(), EVENT_KEEPALIVE)
+            except TimeoutError:
+                if await request.is_disconnected():
+                    return
+                yield ": keepalive\n\n"
+                continue
+            yield f"event: change\ndata: {text}\n\n"
+    finally:
+        for task in tasks:
+            task.cancel()
+        for subscription in subscriptions:
+            subscription.close()
+
+
+async def _jog_socket(websocket: WebSocket, server: LineServer, users: UserStore) -> None:
+    """The jog panel's socket: only an operator, with the page's CSRF token, from this origin."""
+    name = websocket.path_params["line"]
+    line = server.lines.get(name)
+    account = account_of(websocket, users)
+    origin = websocket.headers.get("origin")
+    host = websocket.headers.get("host")
+    token = websocket.query_params.get("csrf")
+    same_origin = origin is not None and host is not None and origin.split("://", 1)[-1] == host
+    if line is None or not same_origin or token != account.csrf or not account.may(Role.OPERATOR):
+        await websocket.close(code=4403)
+        return
+    await websocket.accept()
+    session = JogSession(line, Who(account.name, "web"))
+    try:
+        await session.run(websocket)
+    except WebSocketDisconnect:
+        pass
+    finally:
+        await session.stop("the page went away")
+
+
+async def _forbidden_response(request: Request, exc: Exception) -> Response:
+    assert isinstance(exc, _Forbidden)
+    return _error(request, exc.status, exc.message)
+
+
+async def _robostar_error_response(request: Request, exc: Exception) -> Response:
+    return _error(request, 409, str(exc))
+
+
+def _error(request: Request, status: int, message: str) -> Response:
+    if "text/html" in request.headers.get("accept", "") and request.method == "GET":
+        return HTMLResponse(f"<h1>{status}</h1><p>{_escape(message)}</p>", status_code=status)
+    return JSONResponse({"ok": False, "error": message}, status_code=status)
+
+
+def _escape(text: str) -> str:
+    return text.replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")

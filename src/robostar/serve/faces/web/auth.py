@@ -1,0 +1,97 @@
+"""Who is signed in, what they may do, and the guards of every state-changing request.
+
+Sessions live in a signed, HTTP-only cookie (Starlette's SessionMiddleware); the session holds
+the user's name and a CSRF token. Every POST (and the jog WebSocket) must carry that token, and
+state changes need a role. Logins are rate-limited per client address.
+"""
+
+from __future__ import annotations
+
+import hmac
+import secrets
+import time
+from collections import deque
+from dataclasses import dataclass
+
+from starlette.requests import HTTPConnection, Request
+
+from robostar.serve.faces.web.users import Role, User, UserStore
+
+__all__ = ["CSRF_FIELD", "CSRF_HEADER", "Account", "LoginLimiter", "account_of", "csrf_ok"]
+
+CSRF_FIELD = "csrf_token"
+CSRF_HEADER = "x-csrf-token"
+
+
+@dataclass(frozen=True, slots=True)
+class Account:
+    """The visitor: a signed-in user, or an anonymous viewer (``user`` None)."""
+
+    user: User | None
+    csrf: str
+
+    @property
+    def name(self) -> str:
+        return self.user.name if self.user is not None else "anonymous"
+
+    @property
+    def role(self) -> Role | None:
+        return self.user.role if self.user is not None else None
+
+    def may(self, role: Role) -> bool:
+        return self.user is not None and self.user.role >= role
+
+
+def account_of(connection: HTTPConnection, users: UserStore) -> Account:
+    """The account of a request or WebSocket; gives the session a CSRF token if it has none."""
+    session = connection.session
+    token = session.get("csrf")
+    if not isinstance(token, str):
+        token = secrets.token_urlsafe(32)
+        session["csrf"] = token
+    name = session.get("user")
+    user = users.get(name) if isinstance(name, str) else None
+    return Account(user, token)
+
+
+async def csrf_ok(request: Request, account: Account) -> bool:
+    """Does a state-changing request carry the session's CSRF token (header or form field)?"""
+    sent = request.headers.get(CSRF_HEADER)
+    if sent is None and request.headers.get("content-type", "").startswith(
+        ("application/x-www-form-urlencoded", "multipart/form-data")
+    ):
+        form = await request.form()
+        value = form.get(CSRF_FIELD)
+        sent = value if isinstance(value, str) else None
+    return sent is not None and hmac.compare_digest(sent, account.csrf)
+
+
+class LoginLimiter:
+    """At most ``attempts`` failed logins per ``window`` seconds from one address."""
+
+    def __init__(self, attempts: int = 5, window: float = 60.0) -> None:
+        self.attempts = attempts
+        self.window = window
+        self._failures: dict[str, deque[float]] = {}
+
+    def blocked_for(self, address: str, now: float | None = None) -> float:
+        """Seconds until ``address`` may try again (0: now)."""
+        now = time.monotonic() if now is None else now
+        failures = self._failures.get(address)
+        if not failures:
+            return 0.0
+        while failures and now - failures[0] > self.window:
+            failures.popleft()
+        if len(failures) < self.attempts:
+            return 0.0
+        return self.window - (now - failures[0])
+
+    def failed(self, address: str, now: float | None = None) -> None:
+        now = time.monotonic() if now is None else now
+        self._failures.setdefault(address, deque()).append(now)
+        if len(self._failures) > 10_000:  # bounded: forget the oldest addresses
+            for stale in list(self._failures)[:5_000]:
+                del self._failures[stale]
+
+    def succeeded(self, address: str) -> None:
+        self._failures.pop(address, None)

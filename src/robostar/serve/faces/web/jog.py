@@ -1,0 +1,133 @@
+"""Jogging from a browser: the axis moves only while the page keeps saying so.
+
+The page sends ``{"type": "keepalive"}`` every 100 ms while a jog button is held. The server
+turns that into the controller's own keepalive (BF, within its 500 ms) and stops the axis with
+BG when the page falls silent for :data:`SILENCE` seconds, on release, when the page is hidden
+or loses focus, and when the socket closes. A browser is no enabling device: the page says so.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import json
+import logging
+import time
+from typing import Any, Protocol
+
+from robostar.commands.motion import JogContinue, JogStart, JogStop
+from robostar.errors import RobostarError
+from robostar.serve.lease import Who
+from robostar.serve.line import Line
+from robostar.types import JogDirection, MotionType
+
+__all__ = ["KEEPALIVE_EVERY", "SILENCE", "JogSession"]
+
+log = logging.getLogger(__name__)
+
+SILENCE = 0.3
+"""Seconds without a keepalive from the page after which the axis is stopped."""
+KEEPALIVE_EVERY = 0.2
+"""Seconds between BFs while the page keeps the jog alive (the controller allows 0.5)."""
+_TICK = 0.05
+
+
+class _Socket(Protocol):
+    async def receive_text(self) -> str: ...
+
+    async def send_text(self, data: str) -> None: ...
+
+
+class JogSession:
+    """One browser's jog panel on one line: at most one axis moving at a time."""
+
+    def __init__(self, line: Line, who: Who) -> None:
+        self.line = line
+        self.who = who
+        self.channel: int | None = None
+        self._last_heard = 0.0
+        self._last_bf = 0.0
+        self._watchdog: asyncio.Task[None] | None = None
+        self._socket: _Socket | None = None
+
+    async def run(self, socket: _Socket) -> None:
+        """Serve the page's messages until the socket closes."""
+        self._socket = socket
+        while True:
+            message = _parse(await socket.receive_text())
+            kind = message.get("type")
+            if kind == "start":
+                await self._start(message)
+            elif kind == "keepalive":
+                self._last_heard = time.monotonic()
+            elif kind == "stop":
+                await self.stop(str(message.get("reason", "released")))
+            else:
+                await self._tell({"type": "error", "error": f"unknown message {kind!r}"})
+
+    async def _start(self, message: dict[str, Any]) -> None:
+        await self.stop("a new jog")
+        try:
+            channel, axis = int(message["channel"]), int(message["axis"])
+            direction = JogDirection.PLUS if message.get("direction") == "+" else JogDirection.MINUS
+            motion = MotionType.LINEAR if message.get("motion") == "linear" else MotionType.JOINT
+            command = JogStart(channel, axis, direction, motion)
+            command.encode()  # refuse a bad axis or channel before the line
+        except (KeyError, ValueError, TypeError, RobostarError) as exc:
+            await self._tell({"type": "error", "error": f"bad jog request: {exc}"})
+            return
+        try:
+            await self.line.execute(command, who=self.who, implicit_lease=True)
+        except RobostarError as exc:
+            await self._tell({"type": "error", "error": str(exc)})
+            return
+        self.channel = channel
+        self._last_heard = self._last_bf = time.monotonic()
+        self._watchdog = asyncio.create_task(self._watch(channel))
+        await self._tell({"type": "moving", "channel": channel, "axis": axis})
+
+    async def _watch(self, channel: int) -> None:
+        """Keep the jog alive while the page does; stop it when the page falls silent."""
+        while self.channel == channel:
+            await asyncio.sleep(_TICK)
+            now = time.monotonic()
+            if now - self._last_heard > SILENCE:
+                self._watchdog = None  # stop() must not cancel the task that calls it
+                await self.stop("the page stopped sending keepalives")
+                return
+            if now - self._last_bf >= KEEPALIVE_EVERY:
+                self._last_bf = now
+                try:
+                    await self.line.execute(JogContinue(channel), who=self.who)
+                except RobostarError as exc:
+                    log.warning("jog on %s: keepalive failed: %s", self.line.name, exc)
+
+    async def stop(self, reason: str) -> None:
+        """BG for the jogging channel (if one is jogging), and tell the page why."""
+        channel, self.channel = self.channel, None
+        watchdog, self._watchdog = self._watchdog, None
+        if watchdog is not None:
+            watchdog.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await watchdog
+        if channel is None:
+            return
+        try:
+            await self.line.execute(JogStop(channel), who=self.who)
+        except RobostarError as exc:
+            log.warning("jog on %s: BG failed: %s", self.line.name, exc)
+        await self._tell({"type": "stopped", "channel": channel, "reason": reason})
+
+    async def _tell(self, message: dict[str, Any]) -> None:
+        if self._socket is None:
+            return
+        with contextlib.suppress(Exception):  # the page may be gone; the jog is stopped anyway
+            await self._socket.send_text(json.dumps(message))
+
+
+def _parse(text: str) -> dict[str, Any]:
+    try:
+        value = json.loads(text)
+    except ValueError:
+        return {}
+    return value if isinstance(value, dict) else {}

@@ -1,0 +1,206 @@
+// robostar dashboard: live values from /events, confirmed actions, and the jog panel.
+// Plain JavaScript, no build step, no CDN: plants are offline.
+"use strict";
+
+const csrf = () => document.querySelector('meta[name="csrf-token"]').content;
+const role = () => document.body.dataset.role;
+const RANK = { anonymous: 0, viewer: 1, operator: 2, engineer: 3, admin: 4 };
+const may = (needed) => (RANK[role()] || 0) >= RANK[needed];
+
+// -- live values -------------------------------------------------------------------------------
+const renderers = {
+  lamps(el, value) {
+    for (const lamp of el.querySelectorAll("[data-field]")) {
+      const on = value && value[lamp.dataset.field];
+      lamp.classList.toggle("on", !!on);
+      lamp.classList.toggle("off", !on);
+    }
+  },
+  online(el, value) {
+    el.classList.toggle("on", !!value);
+    el.classList.toggle("off", !value);
+    el.textContent = value ? "online" : "offline";
+  },
+  speed(el, value) {
+    el.textContent = value === null ? "—" : (value / 10).toFixed(1) + " %";
+  },
+  alarms(el, value) {
+    el.replaceChildren();
+    for (const alarm of value || []) {
+      const div = document.createElement("div");
+      div.className = "alarm";
+      div.textContent = `${alarm.code} : ${alarm.text}`;
+      el.append(div);
+    }
+    if (!value || value.length === 0) {
+      const div = document.createElement("div");
+      div.className = "none";
+      div.textContent = "No alarms";
+      el.append(div);
+    }
+  },
+  axes(el, value) {
+    if (!value) return;
+    value.axes.forEach((v, i) => {
+      const cell = el.querySelector(`[data-axis="${i + 1}"]`);
+      if (cell) cell.textContent = v.toFixed(3);
+    });
+  },
+  trail(el, value) {
+    if (!value || value.axes.length < 2) return;
+    const points = (el._trail = el._trail || []);
+    points.push([value.axes[0], value.axes[1]]);
+    if (points.length > 200) points.shift();
+    const ctx = el.getContext("2d");
+    const xs = points.map((p) => p[0]), ys = points.map((p) => p[1]);
+    const minX = Math.min(...xs), maxX = Math.max(...xs), minY = Math.min(...ys), maxY = Math.max(...ys);
+    const span = Math.max(maxX - minX, maxY - minY, 1);
+    const scale = (el.width - 20) / span;
+    ctx.clearRect(0, 0, el.width, el.height);
+    ctx.strokeStyle = "#3b82f6";
+    ctx.beginPath();
+    points.forEach(([x, y], i) => {
+      const px = 10 + (x - minX) * scale, py = el.height - 10 - (y - minY) * scale;
+      if (i === 0) ctx.moveTo(px, py); else ctx.lineTo(px, py);
+    });
+    ctx.stroke();
+  },
+  contacts(el, value) {
+    if (!value) return;
+    for (const contact of el.querySelectorAll("[data-contact]")) {
+      const on = value.contacts[Number(contact.dataset.contact)];
+      contact.classList.toggle("on", !!on);
+      contact.classList.toggle("off", !on);
+    }
+  },
+  history(el, value) {
+    el.replaceChildren();
+    for (const r of value || []) {
+      const tr = document.createElement("tr");
+      const time = `${r.day}D ${String(r.hours).padStart(2, "0")}:${String(r.minutes).padStart(2, "0")}:${String(r.seconds).padStart(2, "0")}`;
+      for (const text of [time, `CH${r.channel}`, r.code, r.text, r.detail]) {
+        const td = document.createElement("td");
+        td.textContent = text;
+        tr.append(td);
+      }
+      el.append(tr);
+    }
+  },
+};
+
+function apply(change) {
+  const key = `${change.line}/${change.key}`;
+  for (const el of document.querySelectorAll(`[data-key="${CSS.escape(key)}"]`)) {
+    el.dataset.quality = change.quality;
+    const render = renderers[el.dataset.render];
+    if (render) render(el, change.value);
+    else el.textContent = change.value === null || change.value === undefined ? "—" : String(change.value);
+  }
+}
+
+function connect() {
+  const state = document.getElementById("stream-state");
+  const source = new EventSource("/events");
+  source.addEventListener("change", (event) => apply(JSON.parse(event.data)));
+  source.onopen = () => { state.hidden = true; };
+  source.onerror = () => { state.hidden = false; };
+  window.robostarStream = source;
+}
+
+// -- confirmed actions -------------------------------------------------------------------------
+function confirmDialog(text) {
+  const dialog = document.getElementById("confirm");
+  document.getElementById("confirm-text").textContent = text;
+  return new Promise((resolve) => {
+    dialog.addEventListener("close", () => resolve(dialog.returnValue === "ok"), { once: true });
+    dialog.showModal();
+  });
+}
+
+function toast(text, bad) {
+  const el = document.getElementById("toast");
+  el.textContent = text;
+  el.className = bad ? "bad shown" : "shown";
+  clearTimeout(el._timer);
+  el._timer = setTimeout(() => { el.className = ""; }, 5000);
+}
+
+async function act(button) {
+  const line = button.closest("[data-line]")?.dataset.line || location.pathname.split("/")[2];
+  const body = { action: button.dataset.action, confirmed: true };
+  if (button.dataset.channel) body.channel = Number(button.dataset.channel);
+  if (button.dataset.on) body.on = button.dataset.on === "true";
+  let text = button.dataset.confirm;
+  if (body.action === "speed") body.speed = Number(button.closest(".actions").querySelector(".speed-input").value);
+  if (body.action === "output") {
+    body.port = Number(button.dataset.port);
+    body.contact = Number(button.dataset.contact);
+    body.on = !button.classList.contains("on");
+    text = `Switch output ${body.port}.${body.contact} ${body.on ? "ON" : "OFF"}?`;
+  }
+  if (!(await confirmDialog(text))) return;
+  const response = await fetch(`/line/${encodeURIComponent(line)}/action`, {
+    method: "POST",
+    headers: { "content-type": "application/json", "x-csrf-token": csrf() },
+    body: JSON.stringify(body),
+  });
+  const answer = await response.json().catch(() => ({ error: response.statusText }));
+  if (response.ok) toast(`${body.action}: done`);
+  else toast(`${body.action}: ${answer.error}`, true);
+}
+
+// -- jog -----------------------------------------------------------------------------------------
+function setupJog(panel) {
+  const line = panel.dataset.line;
+  const scheme = location.protocol === "https:" ? "wss" : "ws";
+  const stateEl = document.getElementById("jog-state");
+  let socket = null, timer = null;
+  const send = (message) => { if (socket && socket.readyState === 1) socket.send(JSON.stringify(message)); };
+  const open = () => new Promise((resolve, reject) => {
+    if (socket && socket.readyState === 1) return resolve();
+    socket = new WebSocket(`${scheme}://${location.host}/line/${encodeURIComponent(line)}/jog/ws?csrf=${encodeURIComponent(csrf())}`);
+    socket.onopen = () => resolve();
+    socket.onerror = () => reject(new Error("jog connection refused"));
+    socket.onclose = () => { clearInterval(timer); stateEl.textContent = "Not connected."; };
+    socket.onmessage = (event) => {
+      const m = JSON.parse(event.data);
+      if (m.type === "moving") stateEl.textContent = `Moving: channel ${m.channel}, axis ${m.axis}.`;
+      else if (m.type === "stopped") stateEl.textContent = `Stopped (${m.reason}).`;
+      else if (m.type === "error") stateEl.textContent = `Refused: ${m.error}`;
+    };
+  });
+  const stop = (reason) => { clearInterval(timer); timer = null; send({ type: "stop", reason }); };
+  for (const button of panel.querySelectorAll(".jog-btn")) {
+    button.addEventListener("pointerdown", async (event) => {
+      event.preventDefault();
+      try { await open(); } catch (error) { stateEl.textContent = String(error); return; }
+      send({
+        type: "start",
+        channel: Number(document.getElementById("jog-channel").value),
+        axis: Number(button.dataset.axis),
+        direction: button.dataset.direction,
+        motion: document.getElementById("jog-motion").value,
+      });
+      clearInterval(timer);
+      timer = setInterval(() => send({ type: "keepalive" }), 100);
+    });
+    for (const kind of ["pointerup", "pointerleave", "pointercancel"]) {
+      button.addEventListener(kind, () => { if (timer) stop("released"); });
+    }
+  }
+  document.addEventListener("visibilitychange", () => { if (document.hidden && timer) stop("page hidden"); });
+  window.addEventListener("blur", () => { if (timer) stop("page lost focus"); });
+  window.robostarJog = { stopKeepalive: () => { clearInterval(timer); timer = null; } };
+}
+
+document.addEventListener("DOMContentLoaded", () => {
+  connect();
+  for (const el of document.querySelectorAll(".operator-only")) el.hidden = !may("operator");
+  for (const el of document.querySelectorAll(".engineer-only")) el.hidden = !may("engineer");
+  document.body.addEventListener("click", (event) => {
+    const button = event.target.closest("[data-action]");
+    if (button && may("operator")) { event.preventDefault(); act(button); }
+  });
+  const panel = document.querySelector(".jog");
+  if (panel) setupJog(panel);
+});

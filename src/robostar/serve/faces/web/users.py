@@ -1,0 +1,162 @@
+"""The web face's users: names, roles and argon2-hashed passwords in a TOML file.
+
+The file is written by ``robostar serve user add NAME --role ROLE`` and read by the web face at
+start. There is no default user and no default password: with no users file, the dashboard is
+read-only for everyone.
+"""
+
+from __future__ import annotations
+
+import enum
+import functools
+import os
+import tempfile
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+
+from argon2 import PasswordHasher
+from argon2.exceptions import InvalidHashError, VerificationError, VerifyMismatchError
+
+from robostar.errors import UsageError
+
+__all__ = ["Role", "User", "UserStore", "hash_password"]
+
+_HASHER = PasswordHasher()
+MIN_PASSWORD = 8
+"""Shortest password accepted when a user is added."""
+
+
+class Role(enum.IntEnum):
+    """What a signed-in user may do; each role may do what the ones below it may."""
+
+    VIEWER = 1
+    """Look at everything; change nothing."""
+    OPERATOR = 2
+    """Servo, job start/stop, alarm reset, outputs, speed, jog."""
+    ENGINEER = 3
+    """Also file uploads, point tables and variables."""
+    ADMIN = 4
+    """Everything."""
+
+    @classmethod
+    def parse(cls, text: str) -> Role:
+        try:
+            return cls[text.strip().upper()]
+        except KeyError:
+            names = ", ".join(role.name.lower() for role in cls)
+            raise UsageError(f"role: {text!r} is not one of {names}") from None
+
+
+@dataclass(frozen=True, slots=True)
+class User:
+    name: str
+    role: Role
+    password_hash: str
+
+
+def hash_password(password: str) -> str:
+    if len(password) < MIN_PASSWORD:
+        raise UsageError(f"password: at least {MIN_PASSWORD} characters")
+    return _HASHER.hash(password)
+
+
+def _check_name(name: str) -> str:
+    if not name or not name.replace("-", "").replace("_", "").replace(".", "").isalnum():
+        raise UsageError(f"user name: {name!r} may hold letters, digits, '-', '_' and '.' only")
+    if len(name) > 64:
+        raise UsageError("user name: at most 64 characters")
+    return name
+
+
+class UserStore:
+    """The users of one server, loaded from ``path`` (missing file: no users)."""
+
+    def __init__(self, path: str | os.PathLike[str] | None) -> None:
+        self.path = Path(path) if path is not None else None
+        self._users: dict[str, User] = {}
+        if self.path is not None and self.path.exists():
+            self._users = _load(self.path)
+
+    def __len__(self) -> int:
+        return len(self._users)
+
+    def get(self, name: str) -> User | None:
+        return self._users.get(name)
+
+    def names(self) -> list[str]:
+        return sorted(self._users)
+
+    def verify(self, name: str, password: str) -> User | None:
+        """The user if ``password`` is theirs. Takes the same time for an unknown name."""
+        user = self._users.get(name)
+        stored = user.password_hash if user is not None else _dummy_hash()
+        try:
+            _HASHER.verify(stored, password)
+        except (VerifyMismatchError, VerificationError, InvalidHashError):
+            return None
+        return user
+
+    def add(self, name: str, role: Role, password: str) -> User:
+        """Add or replace a user and write the file at once (atomically)."""
+        if self.path is None:
+            raise UsageError("users: no users file is configured")
+        user = User(_check_name(name), role, hash_password(password))
+        self._users[user.name] = user
+        self._save()
+        return user
+
+    def remove(self, name: str) -> None:
+        if name not in self._users:
+            raise UsageError(f"user {name!r} does not exist")
+        del self._users[name]
+        self._save()
+
+    def _save(self) -> None:
+        assert self.path is not None
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        lines = ["# robostar serve users: written by `robostar serve user add`", ""]
+        for user in sorted(self._users.values(), key=lambda u: u.name):
+            lines += [
+                f'[users."{user.name}"]',
+                f'role = "{user.role.name.lower()}"',
+                f'password_hash = "{user.password_hash}"',
+                "",
+            ]
+        fd, tmp = tempfile.mkstemp(dir=self.path.parent, prefix=".users-", suffix=".toml")
+        try:
+            with os.fdopen(fd, "w", encoding="utf-8") as handle:
+                handle.write("\n".join(lines))
+            os.chmod(tmp, 0o600)  # hashes are secrets too
+            os.replace(tmp, self.path)
+        except BaseException:
+            Path(tmp).unlink(missing_ok=True)
+            raise
+
+
+def _load(path: Path) -> dict[str, User]:
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
+        raise UsageError(f"{path}: cannot read the users file: {exc}") from exc
+    table = data.get("users", {})
+    if not isinstance(table, dict):
+        raise UsageError(f"{path}: 'users' must be a table")
+    users: dict[str, User] = {}
+    for name, entry in table.items():
+        where = f"{path}: users.{name}"
+        if not isinstance(entry, dict):
+            raise UsageError(f"{where}: must be a table")
+        role_text, hashed = entry.get("role"), entry.get("password_hash")
+        if not isinstance(role_text, str):
+            raise UsageError(f"{where}.role: missing or not a string")
+        if not isinstance(hashed, str) or not hashed.startswith("$argon2"):
+            raise UsageError(f"{where}.password_hash: missing or not an argon2 hash")
+        users[name] = User(_check_name(name), Role.parse(role_text), hashed)
+    return users
+
+
+@functools.cache
+def _dummy_hash() -> str:
+    """A hash to check unknown names against, so that they take as long as known ones."""
+    return _HASHER.hash("robostar: no such user")

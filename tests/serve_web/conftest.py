@@ -1,0 +1,115 @@
+"""Fixtures of the web face's tests (see web_harness for what they start)."""
+
+from __future__ import annotations
+
+import asyncio
+import threading
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import httpx
+import pytest
+
+pytest.importorskip("starlette", reason="the web face needs the 'web' extra")
+
+from web_harness import CHROMIUM, PASSWORDS, ROLES, Stack
+
+from robostar.serve.config import LineConfig, ServeConfig
+from robostar.serve.faces.web import WebFace
+from robostar.serve.faces.web.users import UserStore
+from robostar.serve.server import LineServer
+from robostar.sim import SimConfig, VirtualController
+from robostar.sim.server import SimServer
+
+
+@pytest.fixture(scope="module")
+def users_file(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    path = tmp_path_factory.mktemp("web") / "users.toml"
+    store = UserStore(path)
+    for name, password in PASSWORDS.items():
+        store.add(name, ROLES[name], password)
+    return path
+
+
+@pytest.fixture(scope="module")
+def stack(users_file: Path, tmp_path_factory: pytest.TempPathFactory) -> Iterator[Stack]:
+    controller = VirtualController(SimConfig(speedup=20.0))
+    sim = SimServer(controller).start()
+    audit_path = tmp_path_factory.mktemp("audit") / "audit.jsonl"
+    loop = asyncio.new_event_loop()
+    thread = threading.Thread(target=loop.run_forever, name="web-stack", daemon=True)
+    thread.start()
+
+    async def start() -> tuple[LineServer, WebFace]:
+        config = ServeConfig(
+            lines=(
+                LineConfig(
+                    "cell1", sim.url, poll_interval=0.05, slow_interval=0.1, io_ports=(0, 1, 2, 3)
+                ),
+            ),
+            faces={},
+            audit_path=str(audit_path),
+        )
+        server = LineServer(config)
+        await server.start()
+        face = WebFace(server, {"listen": "127.0.0.1:0", "users": str(users_file)})
+        await face.start()
+        return server, face
+
+    server, face = asyncio.run_coroutine_threadsafe(start(), loop).result(30)
+    built = Stack(controller, sim, server, face, loop, audit_path)
+    try:
+        yield built
+    finally:
+
+        async def stop() -> None:
+            await face.stop()
+            await server.stop()
+
+        asyncio.run_coroutine_threadsafe(stop(), loop).result(30)
+        loop.call_soon_threadsafe(loop.stop)
+        thread.join(10)
+        loop.close()
+        sim.close()
+
+
+@pytest.fixture(autouse=True)
+def free_lease(request: pytest.FixtureRequest) -> Iterator[None]:
+    """Each test starts with nobody holding the line (a lease lasts 30 s otherwise)."""
+    yield
+    if "stack" in request.fixturenames:
+        stack: Stack = request.getfixturevalue("stack")
+        holder = stack.line.lease.holder
+        if holder is not None:
+            stack.loop.call_soon_threadsafe(stack.line.lease.release, holder.who)
+
+
+@pytest.fixture
+def client(stack: Stack) -> Iterator[httpx.Client]:
+    with httpx.Client(base_url=stack.url, timeout=10.0) as http:
+        yield http
+
+
+@pytest.fixture(scope="module")
+def chromium() -> Iterator[Any]:
+    sync_api = pytest.importorskip("playwright.sync_api")
+    if not Path(CHROMIUM).exists():
+        pytest.skip("Debian's chromium is not installed (apt-get install chromium)")
+    with sync_api.sync_playwright() as playwright:
+        launched = playwright.chromium.launch(
+            executable_path=CHROMIUM,
+            args=[
+                "--no-sandbox",
+                "--disable-gpu",
+                "--disable-quic",
+                "--no-first-run",
+                "--disable-background-networking",
+                "--disable-component-update",
+                "--disable-sync",
+            ],
+        )
+        try:
+            yield launched
+        finally:
+            launched.close()

@@ -1,0 +1,89 @@
+"""Helpers for the web face's tests: the stack they run against, and signing in.
+
+The web face for real: a simulator on a loopback TCP port, the line server in front of it, and
+the dashboard served by uvicorn on a free loopback port, all on an event loop of their own.
+
+Tests talk to the dashboard over HTTP (httpx), WebSocket (websockets) and a real browser
+(Playwright driving Debian's Chromium); they change the simulated world directly through the
+simulator's model (holding the simulator host's lock) and read back what the controller did.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import re
+import shutil
+from collections.abc import Callable
+from concurrent.futures import Future
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, TypeVar
+
+import httpx
+import pytest
+
+pytest.importorskip("starlette", reason="the web face needs the 'web' extra")
+
+from robostar.serve.server import LineServer
+
+from robostar.serve.faces.web import WebFace
+from robostar.serve.faces.web.users import Role
+from robostar.sim import VirtualController
+from robostar.sim.server import SimServer
+
+T = TypeVar("T")
+
+PASSWORDS = {"olga": "operator-pass", "vic": "viewer-pass", "erin": "engineer-pass"}
+ROLES = {"olga": Role.OPERATOR, "vic": Role.VIEWER, "erin": Role.ENGINEER}
+CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
+
+
+@dataclass
+class Stack:
+    """One simulator, one line server with the web face, and the loop they run on."""
+
+    controller: VirtualController
+    sim: SimServer
+    server: LineServer
+    face: WebFace
+    loop: asyncio.AbstractEventLoop
+    audit_path: Path
+
+    @property
+    def url(self) -> str:
+        return self.face.url
+
+    @property
+    def line(self) -> Any:
+        return self.server.lines["cell1"]
+
+    def call(self, coro: Any, timeout: float = 10.0) -> Any:
+        """Run a coroutine on the stack's loop and wait for its result."""
+        future: Future[Any] = asyncio.run_coroutine_threadsafe(coro, self.loop)
+        return future.result(timeout)
+
+    def in_sim(self, change: Callable[[VirtualController], T]) -> T:
+        """Change the simulated controller as its own thread would (holding its lock)."""
+        with self.sim.lock:
+            result = change(self.controller)
+        self.sim.wake()
+        return result
+
+
+def login(client: httpx.Client, user: str) -> str:
+    """Sign ``user`` in; returns the session's CSRF token."""
+    page = client.get("/login")
+    token = csrf_of(page.text)
+    answer = client.post(
+        "/login",
+        data={"csrf_token": token, "username": user, "password": PASSWORDS[user]},
+        follow_redirects=False,
+    )
+    assert answer.status_code == 303, answer.text
+    return csrf_of(client.get("/").text)
+
+
+def csrf_of(html: str) -> str:
+    match = re.search(r'<meta name="csrf-token" content="([^"]+)"', html)
+    assert match, "no CSRF token in the page"
+    return match.group(1)
