@@ -13,6 +13,7 @@ from typing import Any
 
 import click
 
+from robostar.cli.serve_users import user
 from robostar.errors import UsageError
 from robostar.serve.config import (
     ConfigError,
@@ -124,7 +125,7 @@ async def _run(config: ServeConfig) -> None:
     log.info("stopped in %.2f s", time.monotonic() - started)
 
 
-@click.command()
+@click.group(invoke_without_command=True)
 @click.option(
     "--line", "lines", multiple=True, metavar="NAME=URL", help="A line to own (repeatable)."
 )
@@ -154,7 +155,9 @@ async def _run(config: ServeConfig) -> None:
     "--log-format", type=click.Choice(["json", "text"]), default="json", show_default=True
 )
 @click.option("-v", "--verbose", is_flag=True, help="Log debug detail.")
+@click.pass_context
 def serve(
+    ctx: click.Context,
     lines: tuple[str, ...],
     config_file: str | None,
     check_file: str | None,
@@ -182,7 +185,10 @@ def serve(
       robostar --port serve://127.0.0.1:8470/cell1 status
       robostar serve --check serve.toml                  # validate, open nothing
       robostar serve --config serve.toml --metrics 127.0.0.1:9464
+      robostar serve user add olga --role operator --users users.toml   # web dashboard users
     """
+    if ctx.invoked_subcommand is not None:
+        return  # `robostar serve user ...`: manage users, serve nothing
     if check_file is not None:
         config = load_config(check_file)
         for text in _describe(config):
@@ -206,3 +212,6 @@ def serve(
     if os.name != "posix":
         raise UsageError("robostar serve runs on POSIX systems (signal handling)")
     asyncio.run(_run(config))
+
+
+serve.add_command(user)

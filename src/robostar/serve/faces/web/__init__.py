@@ -31,7 +31,16 @@ __all__ = ["DEFAULT_LISTEN", "WebFace", "create"]
 
 DEFAULT_LISTEN = "127.0.0.1:8080"
 _KNOWN = frozenset(
-    ("listen", "allow_remote", "users", "secret_file", "tls_cert", "tls_key", "behind_proxy")
+    (
+        "listen",
+        "allow_remote",
+        "token",
+        "users",
+        "secret_file",
+        "tls_cert",
+        "tls_key",
+        "behind_proxy",
+    )
 )
 log = logging.getLogger(__name__)
 
