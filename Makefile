@@ -40,7 +40,7 @@ package: $(STAMP)
 
 # Pictures of every web dashboard page for docs/web.md (Playwright + Debian's chromium).
 screenshots: $(STAMP)
-	$(BIN)/python -m robostar.serve.faces.web.screenshots docs/img
+	$(BIN)/python tools/web_screenshots.py docs/img
 
 bench: $(STAMP)
 	$(BIN)/python -m pip install --quiet -e '.[dev,bench]'

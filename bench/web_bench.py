@@ -26,7 +26,7 @@ if __package__ in (None, ""):
     _root = Path(__file__).resolve().parent.parent
     sys.path[:0] = [str(_root), str(_root / "src")]
 
-from robostar.serve.faces.web.screenshots import CHROMIUM_ARGS
+from tools.web_screenshots import CHROMIUM_ARGS
 
 ROOT = Path(__file__).resolve().parent.parent
 

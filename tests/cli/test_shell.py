@@ -105,3 +105,10 @@ def test_interactive_shell(
     term.send("exit\r")  # read by the shell after the pad: it never left
     assert term.wait_exit() == 0
     assert "servo on" in history.read_text()
+
+
+def test_the_shell_neither_offers_nor_runs_the_line_server() -> None:
+    from robostar.cli.shell import _commands
+
+    assert "serve" not in _commands() and "shell" not in _commands()
+    assert "servo" in _commands()

@@ -60,12 +60,20 @@ def split_line(line: str) -> list[str]:
     return words
 
 
+_NOT_IN_SHELL = {
+    "shell": "Already in the shell.",
+    "serve": "`robostar serve` owns lines and runs until stopped: start it outside the shell.",
+}
+"""Commands the shell refuses (and does not complete), with the reason."""
+
+
 def run_line(parent: Session, words: list[str]) -> int:
     """Run one command line on the shell's connection; its exit code."""
     from robostar.cli.app import cli
 
-    if words[:1] == ["shell"]:
-        click.echo("Already in the shell.", err=True)
+    refusal = _NOT_IN_SHELL.get(words[0]) if words else None
+    if refusal is not None:
+        click.echo(refusal, err=True)
         return EXIT_BAD_ARGUMENT
     try:
         code = cli.main(args=words, prog_name="robostar", standalone_mode=False, obj=parent)
@@ -146,7 +154,8 @@ class ShellState:
 def _commands() -> list[str]:
     from robostar.cli.app import SUBCOMMANDS
 
-    return sorted([*SUBCOMMANDS, *_ALIASES, "exit"])
+    offered = [name for name in SUBCOMMANDS if name not in _NOT_IN_SHELL]
+    return sorted([*offered, *_ALIASES, "exit"])
 
 
 def _subcommands(name: str) -> list[str]:
