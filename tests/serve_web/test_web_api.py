@@ -10,9 +10,10 @@ import httpx
 import pytest
 from web_harness import Stack, csrf_of, login
 
-from robostar.commands.files import FileExists
+from robostar.commands.files import DownloadFile, FileExists
 from robostar.commands.io import ReadOutputs
 from robostar.protocol.fields import FileName
+from robostar.types import CoordSystem
 
 
 def wait_for(check, timeout: float = 5.0) -> None:  # type: ignore[no-untyped-def]
@@ -175,3 +176,31 @@ def test_the_event_stream_carries_a_change_from_the_controller(stack: Stack) -> 
 @pytest.mark.parametrize("path", ["/line/nowhere", "/line/cell1/files/1/BAD NAME.JOB"])
 def test_unknown_things_are_not_found(client: httpx.Client, path: str) -> None:
     assert client.get(path).status_code in (400, 404)
+
+
+def test_an_engineer_changes_a_point_of_a_point_file(stack: Stack) -> None:
+    name = FileName.parse("DEMO.PNT")
+    before = stack.call(stack.line.read(DownloadFile(1, name, CoordSystem.ANGLE), max_age=0))
+    count = len(before.points[1].axes)
+    axes = {f"axis{i}": str(10.5 + i) for i in range(1, count + 1)}
+    with httpx.Client(base_url=stack.url, timeout=30.0) as http:
+        token = login(http, "erin")
+        path = "/line/cell1/files/1/DEMO.PNT/point"
+        unconfirmed = http.post(path, data={"csrf_token": token, "number": "1", **axes})
+        assert unconfirmed.status_code == 428
+        too_fine = {**axes, "axis1": "1.0004"}
+        refused = http.post(
+            path, data={"csrf_token": token, "number": "1", "confirmed": "yes", **too_fine}
+        )
+        assert refused.status_code == 400 and "3 decimals" in refused.json()["error"]
+        done = http.post(
+            path,
+            data={"csrf_token": token, "number": "1", "confirmed": "yes", **axes},
+            follow_redirects=False,
+        )
+        assert done.status_code == 303, done.text
+    after = stack.call(stack.line.read(DownloadFile(1, name, CoordSystem.ANGLE), max_age=0))
+    assert after.points[1].axes == tuple(10.5 + i for i in range(1, count + 1))
+    assert {n: p for n, p in after.points.items() if n != 1} == {
+        n: p for n, p in before.points.items() if n != 1
+    }

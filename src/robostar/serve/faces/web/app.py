@@ -13,6 +13,7 @@ import asyncio
 import contextlib
 import io
 import json
+import math
 import secrets
 import time
 import zipfile
@@ -37,6 +38,7 @@ from starlette.staticfiles import StaticFiles
 from starlette.templating import Jinja2Templates
 from starlette.websockets import WebSocket, WebSocketDisconnect
 
+from robostar.client.files import point_lines
 from robostar.commands.base import Command
 from robostar.commands.control import EmergencyStop, ResetAlarms, SetSpeed, StartJob, StopJob
 from robostar.commands.files import DownloadFile, ListFiles, UploadFile
@@ -58,7 +60,16 @@ from robostar.serve.jsonable import jsonable
 from robostar.serve.lease import Who
 from robostar.serve.line import Line
 from robostar.serve.server import LineServer
-from robostar.types import CoordSystem, FileRecord, JobFile, PointFile, PositionKind, RobotType
+from robostar.types import (
+    ArmForm,
+    CoordSystem,
+    FileRecord,
+    JobFile,
+    Point,
+    PointFile,
+    PositionKind,
+    RobotType,
+)
 
 __all__ = ["WebSettings", "build_app"]
 
@@ -171,6 +182,33 @@ def build_app(server: LineServer, settings: WebSettings) -> Starlette:
             text,
             media_type="text/plain; charset=utf-8",
             headers={"content-disposition": f'attachment; filename="{name}"'},
+        )
+
+    async def point_edit(request: Request) -> Response:
+        """The point table editor: one point of a PNT file changed, the file written back (FB)."""
+        line = line_of(request)
+        account = await guard(request, Role.ENGINEER)
+        channel, name = _file_params(request)
+        form = await request.form()
+        if form.get("confirmed") != "yes":
+            raise _Forbidden(428, "confirm the change of the point first")
+        if not name.is_points:
+            raise _Forbidden(400, f"{name} is not a point file")
+        number = _int(form.get("number"), "point", 0, 9999)
+        content = await line.read(DownloadFile(channel, name, CoordSystem.ANGLE), max_age=0)
+        if not isinstance(content, PointFile):
+            raise _Forbidden(400, f"{name} did not download as a point table")
+        old = content.points.get(number)
+        count = len(old.axes) if old is not None else _axes_of(content)
+        axes = tuple(_coordinate(form.get(f"axis{i}"), f"axis {i}") for i in range(1, count + 1))
+        arm = old.arm if old is not None else ArmForm.NONE
+        points = {**content.points, number: Point(axes, arm, True)}
+        records = await line.read(ListFiles(channel, "*"), max_age=0)
+        job_number = next((r.job_number for r in records if r.name == str(name)), 0)
+        lines = point_lines(points)
+        await run(line, UploadFile(channel, name, job_number, lines), account)
+        return RedirectResponse(
+            f"/line/{line.name}/files/{channel}/{name}?saved={number}", status_code=303
         )
 
     async def backup_zip(request: Request) -> Response:
@@ -334,6 +372,7 @@ def build_app(server: LineServer, settings: WebSettings) -> Starlette:
         Route("/line/{line}/files/upload/confirm", upload_confirm, methods=["POST"]),
         Route("/line/{line}/files/{channel:int}/{name}", file_view),
         Route("/line/{line}/files/{channel:int}/{name}/download", file_download),
+        Route("/line/{line}/files/{channel:int}/{name}/point", point_edit, methods=["POST"]),
         Route("/line/{line}/backup.zip", backup_zip),
         Route("/line/{line}/jog", jog_page),
         WebSocketRoute("/line/{line}/jog/ws", jog_socket),
@@ -432,9 +471,24 @@ def _file_params(request: Request) -> tuple[int, FileName]:
 def _file_text(content: JobFile | PointFile) -> str:
     if isinstance(content, JobFile):
         return "\n".join(content.lines) + "\n"
-    from robostar.client.files import point_lines
-
     return "\n".join(point_lines(content)) + "\n"
+
+
+def _axes_of(content: PointFile) -> int:
+    """How many axes a new point of this file has: as many as its other points."""
+    return max((len(p.axes) for p in content.points.values()), default=4)
+
+
+def _coordinate(value: object, name: str) -> float:
+    try:
+        number = float(str(value).strip())
+    except ValueError:
+        raise _Forbidden(400, f"{name}: a number, not {value!r}") from None
+    if not math.isfinite(number) or abs(number) >= 1e6:
+        raise _Forbidden(400, f"{name}: {value!r} is not a coordinate")
+    if round(number, 3) != number:
+        raise _Forbidden(400, f"{name}: at most 3 decimals ({value!r})")
+    return number
 
 
 async def _json_body(request: Request) -> dict[str, Any]:
