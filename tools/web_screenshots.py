@@ -29,6 +29,7 @@ PAGES = {
     "files": "/line/cell1/files?channel=1",
     "file": "/line/cell1/files/1/DEMO.JOB",
     "jog": "/line/cell1/jog",
+    "variables": "/line/cell1/variables?kind=float&count=10",
     "audit": "/audit",
     "health": "/health",
 }

@@ -204,3 +204,54 @@ def test_an_engineer_changes_a_point_of_a_point_file(stack: Stack) -> None:
     assert {n: p for n, p in after.points.items() if n != 1} == {
         n: p for n, p in before.points.items() if n != 1
     }
+
+
+def test_variables_page_reads_fresh_and_an_engineer_writes_with_confirmation(stack: Stack) -> None:
+    stack.in_sim(lambda c: c.model.ints.update({3: 4321}))
+    stack.in_sim(lambda c: c.model.floats.update({2: 12.5}))
+    with httpx.Client(base_url=stack.url, timeout=30.0) as http:
+        page = http.get("/line/cell1/variables?kind=int&start=0&count=5")
+        assert page.status_code == 200 and "4321" in page.text
+        assert "12.500" in http.get("/line/cell1/variables?kind=float&count=3").text
+        assert "unused" in http.get("/line/cell1/variables?kind=point&count=2").text
+        assert http.get("/line/cell1/variables?kind=bogus").status_code == 400
+        token = csrf_of(page.text)
+        form = {"csrf_token": token, "kind": "int", "index": "3", "value": "7", "confirmed": "yes"}
+        anonymous = http.post("/line/cell1/variables", data=form)
+        assert anonymous.status_code == 403
+    with httpx.Client(base_url=stack.url, timeout=30.0) as http:
+        token = login(http, "olga")  # an operator may not write variables
+        form = {"csrf_token": token, "kind": "int", "index": "3", "value": "7", "confirmed": "yes"}
+        assert http.post("/line/cell1/variables", data=form).status_code == 403
+    with httpx.Client(base_url=stack.url, timeout=30.0) as http:
+        token = login(http, "erin")
+        base = {"csrf_token": token, "kind": "int", "index": "3"}
+        unconfirmed = http.post("/line/cell1/variables", data={**base, "value": "7"})
+        assert unconfirmed.status_code == 428
+        for kind, bad, rule in (
+            ("int", "1.5", "whole number"),
+            ("int", "1000000", "not in"),
+            ("float", "nan", "does not fit"),
+            ("float", "1.0004", "3 decimals"),
+        ):
+            form = {**base, "kind": kind, "value": bad, "confirmed": "yes"}
+            refused = http.post("/line/cell1/variables", data=form)
+            assert refused.status_code == 400 and rule in refused.json()["error"], (kind, bad)
+        done = http.post(
+            "/line/cell1/variables",
+            data={**base, "value": "-42", "confirmed": "yes"},
+            follow_redirects=False,
+        )
+        assert done.status_code == 303, done.text
+        wrote_float = http.post(
+            "/line/cell1/variables",
+            data={**base, "kind": "float", "index": "2", "value": "-3.25", "confirmed": "yes"},
+            follow_redirects=False,
+        )
+        assert wrote_float.status_code == 303, wrote_float.text
+    assert stack.in_sim(lambda c: c.model.ints[3]) == -42
+    assert stack.in_sim(lambda c: c.model.floats[2]) == -3.25
+    entries = [json.loads(t) for t in stack.audit_path.read_text().splitlines()]
+    whats = [e["what"] for e in entries if e["who"] == "erin" and e["face"] == "web"]
+    assert any("WriteGlobalInt(index=3, value=-42)" in w for w in whats), whats
+    assert any("WriteGlobalFloat(index=2, value=-3.25)" in w for w in whats), whats

@@ -55,6 +55,7 @@ from robostar.serve.faces.web.auth import (
 )
 from robostar.serve.faces.web.jog import JogSession
 from robostar.serve.faces.web.users import Role, UserStore
+from robostar.serve.faces.web.variables import KINDS, PAGE_MAX, build_write, page_range, read_rows
 from robostar.serve.faces.web.views import axis_unit, change_json, sample_json
 from robostar.serve.jsonable import jsonable
 from robostar.serve.lease import Who
@@ -272,6 +273,55 @@ def build_app(server: LineServer, settings: WebSettings) -> Starlette:
         await run(line, UploadFile(channel, name, job_number, lines), account)
         return RedirectResponse(f"/line/{line.name}/files?channel={channel}", status_code=303)
 
+    async def variables(request: Request) -> Response:
+        """Global variables of one kind, a page of indexes read fresh from the controller."""
+        line = line_of(request)
+        query = request.query_params
+        kind = query.get("kind", "int")
+        if kind not in KINDS:
+            raise _Forbidden(400, f"kind: one of {', '.join(KINDS)}")
+        channel = _int(query.get("channel", "1"), "channel", 1, 3)
+        start = _int(query.get("start", "0"), "start", 0, 1023)
+        count = _int(query.get("count", "20"), "count", 1, PAGE_MAX)
+        try:
+            indexes = page_range(kind, start, count)
+        except UsageError as exc:
+            raise _Forbidden(400, str(exc)) from None
+        rows = await read_rows(line, kind, channel, indexes)
+        return page(
+            request,
+            "variables.html",
+            line=line,
+            kind=kind,
+            kinds=KINDS,
+            channel=channel,
+            start=start,
+            count=count,
+            rows=rows,
+            saved=query.get("saved"),
+        )
+
+    async def variable_write(request: Request) -> Response:
+        """GW of one integer or float, confirmed, by an engineer, under the lease and audited."""
+        line = line_of(request)
+        account = await guard(request, Role.ENGINEER)
+        form = await request.form()
+        if form.get("confirmed") != "yes":
+            raise _Forbidden(428, "confirm the new value first")
+        kind = str(form.get("kind", ""))
+        index = _int(form.get("index"), "index", 0, 499)
+        try:
+            command = build_write(kind, index, str(form.get("value", "")))
+            command.encode()  # the field's own checks, before the queue
+        except UsageError as exc:
+            raise _Forbidden(400, str(exc)) from None
+        await run(line, command, account)
+        start = _int(form.get("start", str(index)), "start", 0, 1023)
+        return RedirectResponse(
+            f"/line/{line.name}/variables?kind={kind}&start={start}&saved={index}",
+            status_code=303,
+        )
+
     async def jog_page(request: Request) -> Response:
         line = line_of(request)
         return page(request, "jog.html", line=line, card=_card(line))
@@ -374,6 +424,8 @@ def build_app(server: LineServer, settings: WebSettings) -> Starlette:
         Route("/line/{line}/files/{channel:int}/{name}/download", file_download),
         Route("/line/{line}/files/{channel:int}/{name}/point", point_edit, methods=["POST"]),
         Route("/line/{line}/backup.zip", backup_zip),
+        Route("/line/{line}/variables", variables, methods=["GET"]),
+        Route("/line/{line}/variables", variable_write, methods=["POST"]),
         Route("/line/{line}/jog", jog_page),
         WebSocketRoute("/line/{line}/jog/ws", jog_socket),
         Mount("/static", StaticFiles(directory=str(_HERE / "static")), name="static"),
