@@ -74,7 +74,7 @@ class WebFace:
         users_path = options.get("users")
         self.users = UserStore(str(users_path) if users_path is not None else None)
         audit = getattr(server.config, "audit_path", None)
-        settings = WebSettings(
+        self.settings = settings = WebSettings(
             users=self.users,
             secret=_secret(options.get("secret_file")),
             https_only=self._tls is not None or bool(options.get("behind_proxy")),
