@@ -11,7 +11,8 @@ from __future__ import annotations
 
 import asyncio
 import logging
-from collections.abc import Mapping
+import ssl
+from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING
 
 from robostar.commands.files import UploadFile
@@ -100,11 +101,19 @@ class N1Face:
     """One :class:`AsyncHost` per configured line."""
 
     def __init__(
-        self, server: LineServer, listens: Mapping[str, tuple[str, int]], allow_remote: bool
+        self,
+        server: LineServer,
+        listens: Mapping[str, tuple[str, int]],
+        allow_remote: bool,
+        *,
+        ssl_context: ssl.SSLContext | None = None,
+        allow_from: Sequence[object] | None = None,
     ) -> None:
         self.server = server
         self.listens = dict(listens)
         self.allow_remote = allow_remote
+        self.ssl_context = ssl_context
+        self.allow_from = allow_from
         self.hosts: dict[str, AsyncHost] = {}
         self.backends: dict[str, LineBackend] = {}
         self.addresses: dict[str, tuple[str, int]] = {}
@@ -125,7 +134,13 @@ class N1Face:
             return Session(backend, name=conn, timeout=timeout)
 
         n1 = AsyncHost(factory, name=f"n1 {name}")
-        self.addresses[name] = await n1.start(host, port, allow_remote=self.allow_remote)
+        self.addresses[name] = await n1.start(
+            host,
+            port,
+            allow_remote=self.allow_remote,
+            ssl_context=self.ssl_context,
+            allow_from=self.allow_from,
+        )
         warn_remote(host, self.addresses[name][1], f"the N1 face of line {name}")
         self.hosts[name] = n1
         self.backends[name] = backend

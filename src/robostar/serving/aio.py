@@ -6,22 +6,30 @@
 a pump soon after a backend answers late (the session's ``on_ready``). A connection whose peer
 raises, or that leaves too much unread, is dropped with a log line; the others go on. Connections
 past ``max_clients`` are closed at once with a log line.
+
+Beyond loopback the N1 protocol has no authentication of its own, so a host can be told which
+peers it serves: ``allow_from`` (addresses and networks; loopback is always allowed) and/or an
+``ssl`` context (mutual TLS when the context requires client certificates).
 """
 
 from __future__ import annotations
 
 import asyncio
 import contextlib
+import ipaddress
 import logging
 import socket
-from collections.abc import Callable
+import ssl
+from collections.abc import Callable, Iterable
 
 from robostar.errors import UsageError
 from robostar.serving.address import check_host, check_port
 from robostar.serving.session import Session
 from robostar.transport.peer import BytePeer
 
-__all__ = ["AsyncHost"]
+__all__ = ["AsyncHost", "parse_networks"]
+
+Network = ipaddress.IPv4Network | ipaddress.IPv6Network
 
 log = logging.getLogger(__name__)
 
@@ -45,6 +53,10 @@ class _Connection(asyncio.Protocol):
         address = transport.get_extra_info("peername")
         self.name = f"{address[0]}:{address[1]}" if isinstance(address, tuple) else str(address)
         owner = self.owner
+        if not owner.admits(address):
+            log.warning("%s: refused %s: not in allow_from", owner.name, self.name)
+            transport.abort()
+            return
         if len(owner.connections) >= owner.max_clients:
             log.warning(
                 "%s: refused %s: already %d clients (the limit)",
@@ -126,6 +138,21 @@ class _Connection(asyncio.Protocol):
         self.peer = None
 
 
+def parse_networks(items: Iterable[object]) -> tuple[Network, ...]:
+    """``["192.0.2.7", "198.51.100.0/24", "2001:db8::/32"]`` as networks (a bare address is /32)."""
+    if isinstance(items, str | bytes):
+        raise UsageError(f"allow_from: {items!r} is not a list of addresses or networks")
+    networks: list[Network] = []
+    for item in items:
+        try:
+            networks.append(ipaddress.ip_network(str(item).strip(), strict=False))
+        except ValueError:
+            raise UsageError(
+                f"allow_from: {item!r} is not an address or network (e.g. 192.0.2.7, 10.1.0.0/16)"
+            ) from None
+    return tuple(networks)
+
+
 class AsyncHost:
     """Serves one byte peer per TCP connection, made by ``factory(connection_name)``.
 
@@ -146,21 +173,48 @@ class AsyncHost:
         self.max_clients = max_clients
         self.name = name
         self.connections: set[_Connection] = set()
+        self.allow_from: tuple[Network, ...] | None = None
         self._server: asyncio.Server | None = None
+
+    def admits(self, peername: object) -> bool:
+        """Whether a peer at ``peername`` (a socket address) may be served."""
+        if self.allow_from is None:
+            return True
+        if not isinstance(peername, tuple) or not peername:
+            return False
+        try:
+            address = ipaddress.ip_address(str(peername[0]).split("%")[0])
+        except ValueError:
+            return False
+        if isinstance(address, ipaddress.IPv6Address) and address.ipv4_mapped is not None:
+            address = address.ipv4_mapped
+        return address.is_loopback or any(address in network for network in self.allow_from)
 
     @property
     def clients(self) -> int:
         return len(self.connections)
 
     async def start(
-        self, host: str = "127.0.0.1", port: int = 0, *, allow_remote: bool = False
+        self,
+        host: str = "127.0.0.1",
+        port: int = 0,
+        *,
+        allow_remote: bool = False,
+        ssl_context: ssl.SSLContext | None = None,
+        allow_from: Iterable[object] | None = None,
     ) -> tuple[str, int]:
+        """Listen; ``allow_from`` limits the peers served (loopback always is), ``ssl_context``
+        wraps every connection in TLS (the context decides whether client certificates are
+        required)."""
         check_host(host, allow_remote)
         check_port(port)
         if self._server is not None:
             raise UsageError("start: the host is already serving")
+        self.allow_from = None if allow_from is None else parse_networks(allow_from)
         loop = asyncio.get_running_loop()
-        self._server = await loop.create_server(lambda: _Connection(self), host, port)
+        self._server = await loop.create_server(
+            lambda: _Connection(self), host, port, ssl=ssl_context
+        )
         bound = self._server.sockets[0].getsockname()
         return str(bound[0]), int(bound[1])
 

@@ -75,6 +75,8 @@ class _Api:
 
     def n1_address(self, name: str) -> tuple[str, int] | None:
         for face in (self.server.faces.get("n1"), self.own_n1):
+            if getattr(face, "ssl_context", None) is not None:
+                continue  # robostar's serve:// client speaks plain TCP: it gets its own port
             addresses = getattr(face, "addresses", {})
             if name in addresses:
                 return tuple(addresses[name])
