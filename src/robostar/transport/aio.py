@@ -1,4 +1,4 @@
-"""asyncio transports: TCP and serial devices as streams, anything else through a thread."""
+"""asyncio transports: TCP and serial devices through asyncio protocols, others in a thread."""
 
 from __future__ import annotations
 
@@ -6,6 +6,7 @@ import asyncio
 import contextlib
 import socket
 from abc import abstractmethod
+from typing import Any
 
 import serial
 import serial_asyncio_fast
@@ -16,36 +17,82 @@ from robostar.transport.serial_port import SerialSettings, port_error
 from robostar.transport.tcp import tcp_open_error
 from robostar.transport.url import DEFAULT_BAUDRATE, DEFAULT_TCP_PORT
 
-__all__ = ["AsyncSerialTransport", "AsyncTcpTransport", "ThreadedAsyncTransport"]
-
-_READ_SIZE = 4096
+__all__ = ["AsyncSerialTransport", "AsyncTcpTransport", "LineProtocol", "ThreadedAsyncTransport"]
 
 
-class _StreamTransport(AsyncTransport):
-    """An asyncio stream pair; subclasses say how to connect."""
+class LineProtocol(asyncio.Protocol):
+    """Collects what the line delivers and wakes the one reader waiting for it.
+
+    An asyncio.Protocol rather than streams: a read of bytes already here is a buffer swap, and
+    a read that waits is one future and one timer, with no stream machinery per exchange.
+    """
 
     def __init__(self) -> None:
-        self._reader: asyncio.StreamReader | None = None
-        self._writer: asyncio.StreamWriter | None = None
+        self.buffer = bytearray()
+        self.waiter: asyncio.Future[None] | None = None
+        self.lost = False
+        self.lost_reason: BaseException | None = None
+        self.paused = False
+        self.drained: asyncio.Future[None] | None = None
+
+    def _wake(self) -> None:
+        waiter = self.waiter
+        if waiter is not None and not waiter.done():
+            waiter.set_result(None)
+
+    def data_received(self, data: bytes) -> None:
+        self.buffer += data
+        self._wake()
+
+    def eof_received(self) -> bool:
+        return False  # close the transport: the peer is gone
+
+    def connection_lost(self, exc: Exception | None) -> None:
+        self.lost = True
+        self.lost_reason = exc
+        self._wake()
+        self.resume_writing()
+
+    def pause_writing(self) -> None:
+        self.paused = True
+
+    def resume_writing(self) -> None:
+        self.paused = False
+        drained, self.drained = self.drained, None
+        if drained is not None and not drained.done():
+            drained.set_result(None)
+
+
+def _time_up(waiter: asyncio.Future[None]) -> None:
+    if not waiter.done():
+        waiter.set_result(None)
+
+
+class _ProtocolTransport(AsyncTransport):
+    """A line driven through :class:`LineProtocol`; subclasses say how to connect."""
+
+    def __init__(self) -> None:
+        self._transport: asyncio.BaseTransport | None = None
+        self._protocol: LineProtocol | None = None
 
     @property
     def is_open(self) -> bool:
-        return self._writer is not None
+        return self._transport is not None
 
     @abstractmethod
-    async def _connect(self) -> tuple[asyncio.StreamReader, asyncio.StreamWriter]:
-        """Open the line and return its stream pair, or raise PortError."""
+    async def _connect(self) -> tuple[asyncio.BaseTransport, LineProtocol]:
+        """Open the line and return its transport and protocol, or raise PortError."""
 
     async def open(self) -> None:
-        if self._writer is None:
-            self._reader, self._writer = await self._connect()
+        if self._transport is None:
+            self._transport, self._protocol = await self._connect()
 
     async def close(self) -> None:
-        writer, self._writer, self._reader = self._writer, None, None
-        if writer is not None:
-            writer.close()
-            with contextlib.suppress(OSError, serial.SerialException):
-                await writer.wait_closed()
+        transport, self._transport, self._protocol = self._transport, None, None
+        if transport is not None:
+            transport.close()
+            # Let the transport finish closing (its connection_lost runs on the next turns).
+            await asyncio.sleep(0)
 
     async def _lost(self, exc: BaseException | None) -> PortError:
         await self.close()
@@ -53,34 +100,46 @@ class _StreamTransport(AsyncTransport):
         return PortError(f"{self.url}: the connection was lost{detail}")
 
     async def write(self, data: bytes) -> None:
-        writer = self._writer
-        if writer is None:
+        transport, protocol = self._transport, self._protocol
+        if transport is None or protocol is None:
             raise self._closed_error()
+        if protocol.lost:
+            raise await self._lost(protocol.lost_reason)
         try:
-            writer.write(data)
-            await writer.drain()
+            transport.write(data)  # type: ignore[attr-defined]
         except (OSError, serial.SerialException) as exc:
             raise await self._lost(exc) from exc
+        if protocol.paused:
+            drained = protocol.drained
+            if drained is None:
+                drained = protocol.drained = asyncio.get_running_loop().create_future()
+            await drained
+            if protocol.lost:
+                raise await self._lost(protocol.lost_reason)
 
     async def read(self, timeout: float) -> bytes:
-        reader = self._reader
-        if reader is None:
+        protocol = self._protocol
+        if protocol is None:
             raise self._closed_error()
-        try:
-            # asyncio.timeout (not wait_for) lets a read of already-buffered bytes finish even
-            # with a zero timeout.
-            async with asyncio.timeout(max(timeout, 0.0)):
-                data = await reader.read(_READ_SIZE)
-        except TimeoutError:
-            return b""
-        except (OSError, serial.SerialException) as exc:
-            raise await self._lost(exc) from exc
-        if not data:
-            raise await self._lost(None)
-        return data
+        if not protocol.buffer and not protocol.lost and timeout > 0:
+            loop = asyncio.get_running_loop()
+            waiter = protocol.waiter = loop.create_future()
+            timer = loop.call_later(timeout, _time_up, waiter)
+            try:
+                await waiter
+            finally:
+                timer.cancel()
+                protocol.waiter = None
+        if protocol.buffer:
+            data = bytes(protocol.buffer)
+            protocol.buffer.clear()
+            return data
+        if protocol.lost:
+            raise await self._lost(protocol.lost_reason)
+        return b""
 
 
-class AsyncTcpTransport(_StreamTransport):
+class AsyncTcpTransport(_ProtocolTransport):
     """``tcp://host:port`` for asyncio, Nagle off."""
 
     def __init__(
@@ -97,19 +156,24 @@ class AsyncTcpTransport(_StreamTransport):
         self.connect_timeout = connect_timeout
         self.url = url or f"tcp://{host}:{port}"
 
-    async def _connect(self) -> tuple[asyncio.StreamReader, asyncio.StreamWriter]:
+    async def _connect(self) -> tuple[asyncio.BaseTransport, LineProtocol]:
+        loop = asyncio.get_running_loop()
         try:
             async with asyncio.timeout(self.connect_timeout):
-                reader, writer = await asyncio.open_connection(self.host, self.port)
+                transport, protocol = await loop.create_connection(
+                    LineProtocol, self.host, self.port
+                )
         except OSError as exc:
             raise tcp_open_error(self.url, exc) from exc
-        sock = writer.get_extra_info("socket")
+        # asyncio sets TCP_NODELAY on its own TCP transports; say it anyway (older loops).
+        sock = transport.get_extra_info("socket")
         if sock is not None:
-            sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-        return reader, writer
+            with contextlib.suppress(OSError):
+                sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        return transport, protocol
 
 
-class AsyncSerialTransport(_StreamTransport):
+class AsyncSerialTransport(_ProtocolTransport):
     """A serial device (or ``socket://``) for asyncio, through pyserial-asyncio-fast."""
 
     def __init__(
@@ -136,24 +200,26 @@ class AsyncSerialTransport(_StreamTransport):
         self.exclusive = exclusive
         self.low_latency = low_latency and not self.is_url
 
-    async def _connect(self) -> tuple[asyncio.StreamReader, asyncio.StreamWriter]:
+    async def _connect(self) -> tuple[asyncio.BaseTransport, LineProtocol]:
         settings = self.settings.as_kwargs()
         if not self.is_url:
             settings["exclusive"] = self.exclusive or None
+        loop = asyncio.get_running_loop()
         try:
-            reader, writer = await serial_asyncio_fast.open_serial_connection(
-                url=self.port, **settings
+            transport, protocol = await serial_asyncio_fast.create_serial_connection(
+                loop, LineProtocol, self.port, **settings
             )
         except (serial.SerialException, OSError) as exc:
             raise port_error(self.port, exc) from exc
         except ValueError as exc:
             raise PortError(f"{self.port}: bad serial settings: {exc}") from exc
+        assert isinstance(protocol, LineProtocol)
         if self.low_latency:
-            port = writer.transport.get_extra_info("serial")
+            port: Any = transport.get_extra_info("serial")
             # A pty or an adapter without the mode: nothing to gain, nothing lost.
             with contextlib.suppress(AttributeError, NotImplementedError, OSError, ValueError):
                 port.set_low_latency_mode(True)
-        return reader, writer
+        return transport, protocol
 
 
 class ThreadedAsyncTransport(AsyncTransport):

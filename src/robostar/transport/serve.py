@@ -14,7 +14,7 @@ import urllib.error
 import urllib.request
 
 from robostar.errors import PortError
-from robostar.transport.aio import AsyncTcpTransport
+from robostar.transport.aio import AsyncTcpTransport, LineProtocol
 from robostar.transport.tcp import TcpTransport
 
 __all__ = ["AsyncServeTransport", "ServeTransport", "resolve_line"]
@@ -91,7 +91,7 @@ class AsyncServeTransport(AsyncTcpTransport):
         self.line = line
         self.token = token
 
-    async def _connect(self) -> tuple[asyncio.StreamReader, asyncio.StreamWriter]:
+    async def _connect(self) -> tuple[asyncio.BaseTransport, LineProtocol]:
         self.host, self.port = await asyncio.to_thread(
             resolve_line, *self.api, self.line, self.token, self.connect_timeout
         )

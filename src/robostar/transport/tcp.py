@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import math
 import select
 import socket
 
@@ -44,6 +45,7 @@ class TcpTransport(Transport):
         self.connect_timeout = connect_timeout
         self.url = url or f"tcp://{host}:{port}"
         self._sock: socket.socket | None = None
+        self._poll: select.poll | None = None
 
     @property
     def is_open(self) -> bool:
@@ -61,9 +63,13 @@ class TcpTransport(Transport):
         # settimeout() before every call costs system calls on every exchange.
         sock.setblocking(False)
         self._sock = sock
+        if hasattr(select, "poll"):  # not on Windows: select() there
+            self._poll = select.poll()
+            self._poll.register(sock, select.POLLIN)
 
     def close(self) -> None:
         sock, self._sock = self._sock, None
+        self._poll = None
         if sock is not None:
             with contextlib.suppress(OSError):
                 sock.close()
@@ -92,13 +98,17 @@ class TcpTransport(Transport):
         sock = self._sock
         if sock is None:
             raise self._closed_error()
+        # Wait first, then read what is there: one poll and one recv per read, and no
+        # exception on the normal path (a recv on an empty non-blocking socket raises).
+        poller = self._poll
         try:
-            try:
-                data = sock.recv(_RECV_SIZE)
-            except BlockingIOError:
-                if timeout <= 0 or not select.select([sock], [], [], timeout)[0]:
+            if poller is not None:
+                # poll() counts whole milliseconds: round up, or a wait under 1 ms would spin.
+                if not poller.poll(math.ceil(timeout * 1000) if timeout > 0 else 0):
                     return b""
-                data = sock.recv(_RECV_SIZE)
+            elif not select.select([sock], [], [], max(timeout, 0.0))[0]:
+                return b""
+            data = sock.recv(_RECV_SIZE)
         except BlockingIOError:
             return b""
         except OSError as exc:
