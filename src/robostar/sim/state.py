@@ -232,6 +232,13 @@ class ModelBase:
     def advance(self, dt: float) -> None:
         """Move model time on by ``dt`` seconds, stopping at every event on the way."""
         end = self.clock + max(0.0, dt)
+        if not self._timers and all(
+            ch.path is None and ch.jog is None and ch.job is None for ch in self.channels
+        ):
+            # Nothing moves, runs or is scheduled (the usual poll of an idle cell): only the
+            # clock goes on, without the event search below.
+            self.clock = end
+            return
         while True:
             self._tick_jobs()
             target = end
