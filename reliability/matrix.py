@@ -302,7 +302,13 @@ class Trial:
         self.case.prepare(self.sim)
         self.injector = FaultInjector(self.sim, seed=self.seed)
         self.line = FaultLine(self.injector, self.clock)
-        self.client = Client(self.line, timeout=cfg.timeout, retries=cfg.retries, reconnect=True)
+        self.client = Client(
+            self.line,
+            timeout=cfg.timeout,
+            retries=cfg.retries,
+            reconnect=True,
+            controller_timeout=cfg.ack_timeout,
+        )
 
     def call(self, command: Command[Any]) -> Any:
         return self.client.execute(command)

@@ -10,6 +10,7 @@ import pytest
 import robostar.errors as errors
 from robostar.errors import (
     AlarmRaisedError,
+    AnswerTooLongError,
     ControllerError,
     FieldError,
     FrameError,
@@ -43,6 +44,7 @@ EXPECTED_PARENT: dict[type[Exception], type[Exception]] = {
     FrameError: ProtocolError,
     LinkRuleError: ProtocolError,
     MalformedAnswerError: ProtocolError,
+    AnswerTooLongError: ProtocolError,
     ControllerError: RobostarError,
     RejectedError: ControllerError,
     FunctionFailedError: ControllerError,

@@ -24,6 +24,7 @@ from robostar.client import (
     probe,
 )
 from robostar.errors import (
+    AnswerTooLongError,
     ControllerError,
     FieldError,
     FrameError,
@@ -73,6 +74,7 @@ __all__ = [
     "Alarm",
     "AlarmRaisedError",
     "AlarmRecord",
+    "AnswerTooLongError",
     "ArmForm",
     "AsyncClient",
     "ChannelInfo",

@@ -10,7 +10,8 @@ Every error robostar raises is a :class:`RobostarError`. The tree splits errors 
     ├── ProtocolError                       the peer's bytes or behaviour break the protocol
     │   ├── FrameError                      the frame decoder was misused or fed a wrong type
     │   ├── LinkRuleError                   a link-layer rule was broken (names state and event)
-    │   └── MalformedAnswerError            an answer packet does not decode as its command's
+    │   ├── MalformedAnswerError            an answer packet does not decode as its command's
+    │   └── AnswerTooLongError              an answer ran past what its command can carry
     ├── ControllerError                     the controller answered with an error flag
     │   ├── RejectedError         (0x31)    the packet was not understood
     │   ├── FunctionFailedError   (0x32)    understood, but cannot be done now (KD reason)
@@ -39,6 +40,7 @@ if TYPE_CHECKING:  # annotations only: errors.py stays the root of the import gr
 
 __all__ = [
     "AlarmRaisedError",
+    "AnswerTooLongError",
     "ControllerError",
     "FieldError",
     "FrameError",
@@ -125,6 +127,15 @@ class MalformedAnswerError(ProtocolError):
         self.command = command
         self.raw = raw
         super().__init__(f"{command} answer: {message}" + (f" (raw {raw!r})" if raw else ""))
+
+
+class AnswerTooLongError(ProtocolError):
+    """A multi-packet answer went past what its command can carry (packets or bytes); the link
+    ended it with RST and dropped what had come."""
+
+    def __init__(self, command: str, detail: str = ""):
+        self.command = command
+        super().__init__(f"{command}: the answer is longer than the command can carry ({detail})")
 
 
 class ControllerError(RobostarError):
@@ -244,7 +255,13 @@ class AlarmRaisedError(WaitError):
 
 
 class JogInterruptedError(RobostarError):
-    """A jog keepalive (BF) failed, so the controller stopped the jog; ``__cause__`` says why."""
+    """A jog ended early: its keepalive (BF) failed or the line was lost, so the controller
+    stopped it (its watchdog stops a jog within 500 ms without keepalives). ``__cause__`` says
+    why; ``stop_error`` is BG's outcome: None when BG went through, else why it did not."""
+
+    def __init__(self, message: str, *, stop_error: BaseException | None = None) -> None:
+        self.stop_error = stop_error
+        super().__init__(message)
 
 
 def error_for_flag(flag: int, command: str, reason: str | None = None) -> ControllerError:

@@ -21,7 +21,7 @@ from pathlib import Path
 import pytest
 
 from robostar.client import AsyncClient, Client, JogInterruptedError
-from robostar.errors import OutcomeUnknownError
+from robostar.errors import OutcomeUnknownError, PortError
 from robostar.protocol.frame import FrameDecoder, Packet
 from robostar.sim import VirtualController
 from robostar.sim.faults import FaultInjector
@@ -157,6 +157,20 @@ def test_a_failed_keepalive_is_reported_when_the_jog_ends(controller: VirtualCon
         assert isinstance(caught.value.__cause__, OutcomeUnknownError)
         assert jog.error is caught.value.__cause__
         assert controller.executions["BG"] == 1
+
+
+def test_a_line_lost_mid_jog_is_a_jog_interrupted_error_with_bgs_outcome(
+    controller: VirtualController,
+) -> None:
+    faults = FaultInjector(controller, seed=5)
+    with Client(PeerTransport(faults), timeout=0.15) as client:
+        with pytest.raises(JogInterruptedError) as caught, client.jog(1, 1, "+"):
+            faults.schedule("disconnect", "to_host", at_byte=0)  # the line goes dead
+            time.sleep(0.8)
+        assert not isinstance(caught.value, PortError)
+        assert caught.value.stop_error is not None  # BG could not be sent either
+        assert "BG failed too" in str(caught.value)
+        assert controller.executions["BG"] == 0
 
 
 def test_close_stops_a_running_jog(controller: VirtualController) -> None:

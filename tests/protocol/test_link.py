@@ -733,17 +733,18 @@ def test_fb_new_request_mid_upload_supersedes_it() -> None:
     pair.answer([FB_OK], After.UPLOAD)
     pair.take()
     # The host gave up (its RST was lost) and asks something else; the request waits for the
-    # end of the host's quiet gap.
+    # end of the host's quiet gap after its own abort (abort_gap, shorter than resync_gap).
+    assert pair.host.abort_gap < pair.host.resync_gap
     pair.host.abort(0.0)
     assert pair.host.data_to_send() == RST_B
     pair.take()
     pair.request(AA)
     assert pair.take() == ([], [])
     assert pair.host.state is State.RESYNC
-    pair.at(0.2499)
+    pair.at(pair.host.abort_gap - 0.0001)
     assert pair.take() == ([], [])
     assert pair.to_ctl == [frame(FB)]
-    pair.at(0.25)
+    pair.at(pair.host.abort_gap)
     _, ctl = pair.take()
     assert pair.to_ctl[-1] == frame(AA)
     assert [type(e) for e in ctl] == [ExchangeFailed, RequestReceived]
@@ -972,7 +973,7 @@ def test_host_abort_sends_rst_and_the_controller_returns_to_listen() -> None:
     ]
     assert pair.host.data_to_send() == RST_B
     assert pair.host.state is State.RESYNC
-    assert pair.host.next_deadline() == pytest.approx(0.35)
+    assert pair.host.next_deadline() == pytest.approx(0.1 + pair.host.abort_gap)
     ctl_events = pair.ctl.receive_data(RST_B, 0.1)
     assert [(f.reason, f.state) for f in failures(ctl_events)] == [
         (FailReason.RESET, State.WAIT_ACK)
@@ -1181,16 +1182,22 @@ def test_an_equal_packet_sooner_than_resend_gap_is_new_data() -> None:
     assert answers(host) == [ALARM_1, ALARM_1, END]
 
 
-def test_resend_gap_is_measured_from_our_ack() -> None:
-    host = HostLink(resend_gap=0.25)
+def test_a_copy_is_a_resend_only_once_the_controller_could_resend() -> None:
+    # The controller resends after its own timeout (peer_resend_after): an equal packet sooner
+    # than 90 % of it after our ACK is new data, later it is the resend of a lost ACK's packet.
+    host = HostLink(peer_resend_after=1.0)
     host.send_request(AB, Shape.MULTI, 0.0)
     host.data_to_send()
     host.receive_data(frame(ALARM_1), 1.0)
-    events = host.receive_data(frame(ALARM_1), 1.2499)
+    events = host.receive_data(frame(ALARM_1), 1.0 + 0.8999)
     assert answers(events) == [ALARM_1]
-    events = host.receive_data(frame(ALARM_1), 1.2499 + 0.25)
+    events = host.receive_data(frame(ALARM_1), 1.8999 + 0.9001)
     assert answers(events) == []
     assert host.data_to_send() == ACK_B * 3
+
+
+def test_peer_resend_after_defaults_to_the_reply_timeout() -> None:
+    assert HostLink(timeout=1.5).peer_resend_after == 1.5
 
 
 def test_lost_ack_of_db_first_answer_keeps_the_second_phase_deadline() -> None:
@@ -1312,11 +1319,11 @@ def test_new_request_while_working_supersedes_the_second_phase() -> None:
     assert pair.host.data_to_send() == RST_B  # lost
     pair.take()
     pair.now = 1.0
-    pair.request(AA)  # deferred to the end of the host's quiet gap
+    pair.request(AA)  # deferred to the end of the host's quiet gap after its abort
     assert pair.take() == ([], [])
-    pair.at(1.2499)
+    pair.at(1.0 + pair.host.abort_gap - 0.0001)
     assert pair.take() == ([], [])
-    pair.at(1.25)
+    pair.at(1.0 + pair.host.abort_gap)
     _, ctl = pair.take()
     assert pair.to_ctl[-1] == frame(AA)
     assert [(f.reason, f.state) for f in failures(ctl)] == [(FailReason.SUPERSEDED, State.WORKING)]
@@ -1877,12 +1884,18 @@ RST_HANDLERS = {
 """The host's table handlers that can end an exchange with its own RST, and why they do."""
 
 
+_ONCE_ONLY_NAKS = {(State.UPLOAD_WAIT_REPLY, Input.NAK), (State.UPLOAD_WAIT_ACK, Input.NAK)}
+"""An upload changes state: after one resend a NAK brings no other copy (it may be a doubled
+one), so NAKs never reach the NAK limit there; the exchange ends at its timeout (tested in
+test_an_upload_line_is_resent_once_for_a_nak_storm)."""
+
+
 def _host_rst_entries() -> list[tuple[State, Input]]:
     return sorted(
         (
             (state, what)
             for (role, state, what), name in TRANSITIONS.items()
-            if role is Role.HOST and name in RST_HANDLERS
+            if role is Role.HOST and name in RST_HANDLERS and (state, what) not in _ONCE_ONLY_NAKS
         ),
         key=lambda k: (k[0].value, k[1].value),
     )
@@ -1921,7 +1934,7 @@ def test_the_host_rst_entries_are_the_ones_expected() -> None:
         State.UPLOAD_WAIT_REPLY,
         State.UPLOAD_WAIT_ACK,
     }
-    sending = {State.WAIT_ANSWER, State.UPLOAD_WAIT_REPLY, State.UPLOAD_WAIT_ACK}
+    sending = {State.WAIT_ANSWER}  # a read's request; an upload's NAKs end by timeout
     assert set(_host_rst_entries()) == (
         {(state, Input.TIMEOUT) for state in waiting}
         | {(state, Input.CORRUPT) for state in waiting}
@@ -1941,10 +1954,13 @@ def test_every_rst_the_host_sends_starts_the_gap(key: tuple[State, Input]) -> No
     assert events == [failed]
     assert link.data_to_send() == RST_B
     assert link.state is State.RESYNC
-    assert link.next_deadline() == pytest.approx(now + GAP)
+    # After its own abort the host waits only for bytes already in flight (abort_gap).
+    assert isinstance(link, HostLink)
+    gap = link.abort_gap if what is Input.ABORT else GAP
+    assert link.next_deadline() == pytest.approx(now + gap)
     assert not link.idle and not link.busy
     assert link.decoder.pending == 0
-    assert link.handle_timeout(now + GAP) == []
+    assert link.handle_timeout(now + gap) == []
     assert link.data_to_send() == b""
     assert link.idle and link.next_deadline() is None
 
@@ -1956,7 +1972,7 @@ def test_without_a_gap_every_rst_the_host_sends_returns_it_to_idle(
     state, what = key
     link = SETUPS[(Role.HOST, state)]()
     assert isinstance(link, HostLink)
-    link.resync_gap = 0
+    link.resync_gap = link.abort_gap = 0
     events, now = _drive_to_rst(link, state, what)
     assert [(f.reason, f.state) for f in failures(events)] == [
         (RST_HANDLERS[TRANSITIONS[(Role.HOST, *key)]], state)
@@ -2574,3 +2590,140 @@ def test_an_empty_packet_on_a_fresh_idle_host_is_stale_not_a_resend() -> None:
     assert events == [Ignored("stale packet outside an exchange (RST)", State.IDLE)]
     assert host.data_to_send() == RST_B
     assert host.idle and host.next_deadline() is None
+
+
+# ===============================================================================================
+# Bounds no peer can stretch (issue #11): announced waits, answer length, the overall limit
+# ===============================================================================================
+def test_an_announced_wait_is_capped_at_max_wait() -> None:
+    host = HostLink(max_wait=5.0)
+    host.send_request(DB, Shape.TWO_PHASE, 0.0)
+    host.receive_data(frame(b"099"), 0.1)
+    assert host.state is State.WAIT_SECOND
+    assert host.next_deadline() == pytest.approx(0.1 + 5.0 + 2.0 + 0.5)
+
+
+def test_max_wait_never_exceeds_what_two_digits_can_say() -> None:
+    assert HostLink(max_wait=1000.0).max_wait == 99.0
+
+
+@pytest.mark.parametrize("body", [b"0 5", b"005", b"05 "], ids=repr)
+def test_an_announced_wait_takes_one_or_two_digits_and_spaces(body: bytes) -> None:
+    host = HostLink()
+    host.send_request(DB, Shape.TWO_PHASE, 0.0)
+    events = host.receive_data(frame(body), 0.0)
+    assert not failures(events)
+    assert host.next_deadline() == pytest.approx(5.0 + 2.0 + 0.5)
+
+
+def test_a_multi_packet_answer_is_cut_with_rst_past_max_packets() -> None:
+    host = HostLink()
+    host.send_request(AB, Shape.MULTI, 0.0, max_packets=3)
+    host.data_to_send()
+    events: list[LinkEvent] = []
+    for k in range(4):
+        events += host.receive_data(frame(ALARM_1), 0.01 * k)
+    assert answers(events) == [ALARM_1] * 3
+    [failed] = failures(events)
+    assert failed.reason is FailReason.TOO_LONG
+    assert "4 packets" in failed.detail
+    assert host.data_to_send() == ACK_B * 3 + RST_B
+    assert host.state is State.RESYNC
+
+
+def test_no_peer_behaviour_stretches_an_exchange_past_its_limit() -> None:
+    # Resends of the last answer, noise and NAKs each restart a wait; none goes past the limit
+    # set when the request went out.
+    host = HostLink(timeout=1.0, resend_grace=0.5)
+    host.send_request(AA, Shape.SINGLE, 0.0)
+    limit = 0.0 + 1.0 * (MAX_NAKS + 1) + (1.0 + 0.5) * 1
+    now = 0.0
+    while host.busy:
+        now += 0.9
+        deadline = host.next_deadline()
+        assert deadline is not None and deadline <= limit + 1e-9
+        if now >= deadline:
+            host.handle_timeout(deadline)
+            break
+        host.receive_data(BAD_LRC, now)  # a damaged frame: NAKed, the wait restarts
+        host.data_to_send()
+    assert now < limit + 1.0
+
+
+def test_a_reads_copy_taken_for_a_resend_is_its_answer_if_nothing_else_comes() -> None:
+    # The controller answers the same request with the same bytes, but only after 1.9 s (near
+    # its own 2 s resend time): it looks like a resend, and nothing else comes; a read takes it.
+    host = _answered_then(0.1)
+    host.data_to_send()
+    assert host.receive_data(frame(AA_ANSWER), 2.0) == [
+        Ignored("resent answer (ACKed again)", State.WAIT_ANSWER)
+    ]
+    deadline = host.next_deadline()
+    assert deadline is not None
+    assert host.handle_timeout(deadline) == [
+        AnswerReceived(AA_ANSWER, 0x30, final=True),
+        ExchangeComplete(),
+    ]
+
+
+def test_a_state_changes_copy_taken_for_a_resend_is_never_its_answer() -> None:
+    host = HostLink()
+    host.send_request(AA, Shape.SINGLE, 0.0)
+    host.receive_data(frame(OK), 0.1)
+    host.send_request(b"\xffCB00040", Shape.SINGLE, 0.1, once=True)
+    host.data_to_send()
+    host.receive_data(frame(OK), 2.1)
+    deadline = host.next_deadline()
+    assert deadline is not None
+    [failed] = failures(host.handle_timeout(deadline))
+    assert failed.reason is FailReason.TIMEOUT
+
+
+@pytest.mark.parametrize("once", [False, True], ids=["a read", "a state change"])
+def test_a_doubled_nak_in_one_read_brings_one_resend(once: bool) -> None:
+    host = HostLink()
+    host.send_request(b"\xffCB00040", Shape.SINGLE, 0.0, once=once)
+    sent = host.data_to_send()
+    events = host.receive_data(NAK_B + NAK_B, 0.01)
+    assert len(events) == 1 and isinstance(events[0], Ignored)
+    assert host.data_to_send() == sent  # one copy
+
+
+def test_a_reads_second_nak_after_its_resend_went_out_brings_another() -> None:
+    host = HostLink()
+    host.send_request(AA, Shape.SINGLE, 0.0)
+    sent = host.data_to_send()
+    host.receive_data(NAK_B, 0.01)
+    assert host.data_to_send() == sent
+    host.receive_data(NAK_B, 0.02)
+    assert host.data_to_send() == sent
+
+
+def test_a_state_changes_second_nak_after_its_resend_brings_no_copy() -> None:
+    host = HostLink()
+    host.send_request(b"\xffCB00040", Shape.SINGLE, 0.0, once=True)
+    sent = host.data_to_send()
+    host.receive_data(NAK_B, 0.01)
+    assert host.data_to_send() == sent
+    events = host.receive_data(NAK_B, 0.02)
+    assert events == [
+        Ignored("NAK after our resend of a state change: not resent", State.WAIT_ANSWER)
+    ]
+    assert host.data_to_send() == b""
+    deadline = host.next_deadline()
+    assert deadline == pytest.approx(0.01 + 2.0)  # the ignored NAK restarts nothing
+    [failed] = failures(host.handle_timeout(deadline))
+    assert "not resent" in failed.detail
+
+
+def test_an_upload_line_is_resent_once_for_a_nak_storm() -> None:
+    host = HostLink()
+    host.send_request(FB, Shape.UPLOAD, 0.0)
+    sent = host.data_to_send()
+    for k in range(1, 5):
+        host.receive_data(NAK_B, 0.01 * k)
+        assert host.data_to_send() == (sent if k == 1 else b"")
+    deadline = host.next_deadline()
+    assert deadline is not None
+    [failed] = failures(host.handle_timeout(deadline))
+    assert failed.reason is FailReason.TIMEOUT

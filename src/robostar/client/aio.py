@@ -46,9 +46,12 @@ class AsyncClient(ClientBase, AsyncRunner):
         reconnect: bool = False,
         poll_interval: float = 0.1,
         keepalive: float = 0.2,
+        controller_timeout: float | None = None,
         **transport_options: Any,
     ) -> None:
-        settings = Settings(timeout, retries, poll_interval, keepalive, reconnect)
+        settings = Settings(
+            timeout, retries, poll_interval, keepalive, reconnect, controller_timeout
+        )
         if isinstance(port, AsyncTransport):
             if transport_options:
                 raise UsageError("transport options go with a URL, not with a Transport")

@@ -17,6 +17,7 @@ from robostar.client.trace import TraceTarget, WireTrace
 from robostar.commands.base import Command
 from robostar.commands.files import UploadFile
 from robostar.errors import OutcomeUnknownError, PortError, UploadIncompleteError, UsageError
+from robostar.protocol.frame import MAX_PACKET
 from robostar.protocol.link import HostLink
 from robostar.transport import AsyncTransport, Transport
 
@@ -34,7 +35,8 @@ class Settings:
 
     ``timeout``: reply timeout (s); ``retries``: resends of a read-only command after a lost
     answer; ``poll_interval``: status reads while waiting (s); ``keepalive``: BF interval of a
-    jog (s, under 0.5); ``reconnect``: reopen a lost line on the next call.
+    jog (s, under 0.5); ``reconnect``: reopen a lost line on the next call;
+    ``controller_timeout``: the controller's own resend timeout (None: the same as ``timeout``).
     """
 
     timeout: float = 2.0
@@ -42,6 +44,7 @@ class Settings:
     poll_interval: float = 0.1
     keepalive: float = 0.2
     reconnect: bool = False
+    controller_timeout: float | None = None
 
     def __post_init__(self) -> None:
         args.positive(self.timeout, "timeout")
@@ -49,6 +52,8 @@ class Settings:
         args.positive(self.poll_interval, "poll_interval")
         check_keepalive(self.keepalive, "keepalive")
         args.boolean(self.reconnect, "reconnect")
+        if self.controller_timeout is not None:
+            args.positive(self.controller_timeout, "controller_timeout")
 
 
 def check_keepalive(value: object, name: str) -> float:
@@ -103,8 +108,19 @@ class ClientBase(Operations):
     def _new_link(self) -> HostLink:
         # After an RST the line must stay quiet for a whole reply timeout before the next
         # request: an answer a device server held back cannot then pass for the next one's.
+        # After our own abort (a stop pre-empting a transfer) the controller stops at the RST;
+        # only a packet already on its way can follow: the gap is one packet's time at the
+        # line's speed (at least 50 ms).
         timeout = self.settings.timeout
-        return HostLink(timeout=timeout, resync_gap=timeout)
+        settings = getattr(self.transport, "settings", None)
+        baud = getattr(settings, "baudrate", 0)
+        packet_time = MAX_PACKET * 10 / baud if isinstance(baud, int) and baud > 0 else 0.0
+        return HostLink(
+            timeout=timeout,
+            resync_gap=timeout,
+            abort_gap=max(0.05, packet_time),
+            peer_resend_after=self.settings.controller_timeout,
+        )
 
     def _check_may_open(self) -> None:
         """Raise unless the line may be (re)opened now: not closed, and not lost without

@@ -22,6 +22,7 @@ from robostar.commands.base import Command
 from robostar.commands.files import DownloadFile, UploadFile, parse_point_line
 from robostar.commands.system import ReadLastError
 from robostar.errors import (
+    AnswerTooLongError,
     ControllerError,
     FieldError,
     LinkResetError,
@@ -89,8 +90,12 @@ def failure_error(command: Command[Any], failure: ExchangeFailed, policy: Policy
     reason = failure.reason
     if reason is FailReason.TIMEOUT:
         if command.CHANGES_STATE:
-            return OutcomeUnknownError(code, f"no answer within {policy.timeout:g} s")
+            return OutcomeUnknownError(
+                code, failure.detail or f"no answer within {policy.timeout:g} s"
+            )
         return ReplyTimeoutError(code, policy.timeout, failure.detail)
+    if reason is FailReason.TOO_LONG:
+        return AnswerTooLongError(code, failure.detail)
     if reason is FailReason.NAK_LIMIT:
         if command.CHANGES_STATE and _answer_was_corrupt(failure):
             return OutcomeUnknownError(code, "its answer arrived corrupt too many times")

@@ -86,8 +86,17 @@ class Exchange:
         self.done = False
 
     def start(self, now: float) -> None:
-        """Send the request."""
-        self._handle(self.link.send_request(self.request, self.command.SHAPE, now), now)
+        """Send the request (a state change at most once more after a NAK; an answer cut at
+        what the command can carry)."""
+        command = self.command
+        events = self.link.send_request(
+            self.request,
+            command.SHAPE,
+            now,
+            once=command.CHANGES_STATE,
+            max_packets=command.MAX_PACKETS,
+        )
+        self._handle(events, now)
 
     def output(self) -> bytes:
         """Bytes to write now."""

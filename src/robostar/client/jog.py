@@ -24,7 +24,7 @@ from typing import Protocol
 from robostar.client import args
 from robostar.commands.base import Command
 from robostar.commands.motion import JogContinue, JogStart, JogStop
-from robostar.errors import JogInterruptedError, UsageError
+from robostar.errors import JogInterruptedError, LineError, UsageError
 from robostar.types import JogDirection, MotionType
 
 __all__ = ["AsyncJog", "Jog", "jog_start"]
@@ -112,16 +112,33 @@ class _JogBase:
         return max(due + self.interval, time.monotonic())
 
     def _ended(self, exc: BaseException | None, stop_error: Exception | None) -> None:
-        """After BG at the end of a ``with`` block: raise what the caller must hear of."""
-        if stop_error is not None:
-            if exc is None:
-                raise stop_error
-            exc.add_note(f"robostar: the jog stop (BG) failed too: {stop_error}")
-        elif exc is None and self.error is not None:
+        """After BG at the end of a ``with`` block: raise what the caller must hear of.
+
+        A failed keepalive, or a line lost by the time of BG, is a JogInterruptedError that
+        carries BG's outcome, never a bare PortError: the caller learns that the jog stopped
+        early and whether the stop itself reached the controller."""
+        channel = self.command.channel
+        if stop_error is None:
+            bg = "BG was sent after it"
+        else:
+            bg = f"BG failed too ({stop_error}); the controller's watchdog stops the jog"
+        if exc is None and self.error is not None:
             raise JogInterruptedError(
-                f"channel {self.command.channel}: a jog keepalive (BF) failed, so the "
-                f"controller stopped the jog: {self.error}"
+                f"channel {channel}: a jog keepalive (BF) failed, so the controller stopped "
+                f"the jog: {self.error}; {bg}",
+                stop_error=stop_error,
             ) from self.error
+        if stop_error is None:
+            return
+        if exc is not None:
+            exc.add_note(f"robostar: the jog stop (BG) failed too: {stop_error}")
+            return
+        if isinstance(stop_error, LineError):
+            raise JogInterruptedError(
+                f"channel {channel}: the line failed by the end of the jog: {bg}",
+                stop_error=stop_error,
+            ) from stop_error
+        raise stop_error
 
 
 class Jog(_JogBase):

@@ -38,6 +38,8 @@ class Client(ClientBase, SyncRunner):
     a lost answer (1; state-changing commands are never resent); ``trace`` a path or callable
     for the wire trace; ``reconnect`` reopen a lost line on the next call; ``poll_interval``
     status reads while waiting (0.1 s); ``keepalive`` jog BF interval (0.2 s, under 0.5 s);
+    ``controller_timeout`` the controller's own resend timeout (default: ``timeout``; the
+    manual's 2 s on both sides), which tells its resends from a slow controller's answers;
     other keyword options go to the transport (``baudrate=57600``).
     """
 
@@ -53,9 +55,12 @@ class Client(ClientBase, SyncRunner):
         reconnect: bool = False,
         poll_interval: float = 0.1,
         keepalive: float = 0.2,
+        controller_timeout: float | None = None,
         **transport_options: Any,
     ) -> None:
-        settings = Settings(timeout, retries, poll_interval, keepalive, reconnect)
+        settings = Settings(
+            timeout, retries, poll_interval, keepalive, reconnect, controller_timeout
+        )
         if isinstance(port, Transport):
             if transport_options:
                 raise UsageError("transport options go with a URL, not with a Transport")

@@ -68,6 +68,7 @@ class Command(ABC, Generic[T]):
     - ``CHANGES_STATE``: True when the command changes the controller (motion, writes, file
       changes, job control), so that it is never resent after a lost answer;
     - ``ANSWER_DUMMY``: True when the manual's answer starts with ``FF`` before the flag;
+    - ``MAX_PACKETS`` (multi-packet answers): how many packets the answer can hold at most;
 
     and implement ``encode_params``/``decode_params`` (the request after ``FF G1 G2``) and
     ``decode_answer``/``encode_answer`` (the answer packets, host and controller side), or
@@ -78,6 +79,9 @@ class Command(ABC, Generic[T]):
     SHAPE: ClassVar[Shape] = Shape.SINGLE
     CHANGES_STATE: ClassVar[bool] = False
     ANSWER_DUMMY: ClassVar[bool] = False
+    MAX_PACKETS: ClassVar[int | None] = None
+    """Multi-packet answers: the most packets (END included) the answer can hold; None: the
+    link's general cap."""
 
     # -- request ---------------------------------------------------------------------------
     @abstractmethod

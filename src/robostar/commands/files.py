@@ -168,6 +168,7 @@ class DownloadFile(Command[JobFile | PointFile]):
     CODE = "FA"
     SHAPE = Shape.MULTI
     ANSWER_DUMMY = True
+    MAX_PACKETS = 9999 + 2  # the announcement, up to 9999 steps or points, END
     channel: int
     file: FileName
     coords: CoordSystem

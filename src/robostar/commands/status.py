@@ -62,6 +62,7 @@ class ReadAlarms(NoParams, Command[tuple[Alarm, ...]]):
 
     CODE = "AB"
     SHAPE = Shape.MULTI
+    MAX_PACKETS = 10 + 1  # ten alarms and END
 
     def decode_answer(self, packets: Sequence[bytes]) -> tuple[Alarm, ...]:
         alarms = []

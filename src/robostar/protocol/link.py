@@ -21,6 +21,7 @@ from robostar.errors import LinkRuleError, MalformedAnswerError, UsageError
 from robostar.protocol.fields import FLAG_END, FLAG_OK
 from robostar.protocol.frame import (
     ACK,
+    MAX_PACKET,
     NAK,
     RST,
     Control,
@@ -58,6 +59,11 @@ MAX_NAKS = 3
 """NAKs in a row for one packet before RST (the receiver's 4th refusal is RST)."""
 MAX_RESENDS = 3
 """Resends of an unacknowledged answer by the controller before it drops the exchange."""
+MAX_ANNOUNCED_WAIT = 99.0
+"""The longest work time a two-phase first answer can announce: its field is two digits."""
+MAX_MULTI_PACKETS = 10_002
+"""Packets a multi-packet answer may take when the request does not say (a 9999-step job with
+its announcement and END); past it the answer is cut with RST."""
 
 
 class Role(enum.Enum):
@@ -133,6 +139,7 @@ class FailReason(enum.Enum):
     RULE = "rule broken"
     ABORTED = "aborted"
     SUPERSEDED = "superseded by a new request"
+    TOO_LONG = "answer longer than the command can carry"
 
 
 # -- events ---------------------------------------------------------------------------------
@@ -340,6 +347,9 @@ class Link:
         self._last_received = b""  # host: last answer data, for resend detection
         self._last_ack_at = 0.0
         self._backlog: list[FrameEvent] = []  # line input held during the application's turn
+        self._resend_unsent = False  # a resend is in _out, not yet handed to the driver
+        self._send_once = False  # host: the current exchange changes state (no doubtful resend)
+        self._doubt = ""  # host: why the current exchange's outcome may be unknown
         self.corrupt_frames = 0
         """Damaged frames received so far (a controller reports the last one's reason in KD)."""
         self.last_corrupt: CorruptReason | None = None
@@ -356,6 +366,7 @@ class Link:
         """Bytes to write to the line now (empty when there are none)."""
         out = bytes(self._out)
         self._out.clear()
+        self._resend_unsent = False
         return out
 
     def next_deadline(self) -> float | None:
@@ -495,11 +506,27 @@ class Link:
             self._extend(self.timeout)
 
     def _resend(self, data: bytes) -> None:
+        # One NAK allows one resend of the transmission it answers.
+        if self._send_once and self._naks >= 1:
+            # A state change is resent once. A later NAK may answer that resend (noise again)
+            # or be a late copy of the first NAK (a doubled byte): then the resend reached the
+            # controller, which may carry it out. No third copy: the answer decides, or the
+            # outcome is unknown when none comes.
+            self._doubt = "a NAK came after our resend (maybe a doubled one); not resent"
+            self._emit(Ignored("NAK after our resend of a state change: not resent", self.state))
+            return
+        if self._resend_unsent and self.role is Role.HOST:
+            # Our resend for an earlier NAK has not even gone out: this NAK cannot answer it.
+            # It is the same NAK again (a doubled byte). (A controller resends an answer as
+            # often as it is NAKed: a copy too many is the host's to recognise.)
+            self._emit(Ignored("NAK before our resend went out (a doubled NAK)", self.state))
+            return
         self._naks += 1
         if self._naks > MAX_NAKS:
             self._fail(FailReason.NAK_LIMIT, f"{self._naks} NAKs for one packet", send_rst=True)
             return
         self._out += self._last_sent
+        self._resend_unsent = True
         self._arm(self.timeout)
 
     def _reset_by_peer(self, data: bytes) -> None:
@@ -550,6 +577,20 @@ class HostLink(Link):
     ACKing a packet that is not the last, it waits ``timeout + resend_grace`` for the next one,
     so that a controller resending after its own timeout (our ACK was lost) is heard before we
     give up.
+
+    A copy of the answer just ACKed is only taken for the controller's resend when it comes
+    late enough for one: the controller resends after its own timeout (``peer_resend_after``,
+    the manual's 2 s; by default taken equal to ours). An equal answer sooner than 90 % of that
+    is new data, so a slow controller (0.3 s, 1.5 s) that answers a repeated request with the
+    same bytes is served at its own speed.
+
+    Every exchange has one overall limit, set when its request goes out, that no behaviour of
+    the peer can stretch (resent answers, NAKs, noise, a trickle of packets): ``timeout`` for
+    each NAK allowed and the answer, ``timeout + resend_grace`` for each packet a multi-packet
+    answer may hold (``max_packets``), and a two-phase answer's announced work time (two
+    digits, at most ``max_wait`` s). After this end's own RST of an exchange (``abort``) the
+    quiet gap is ``abort_gap``: the controller stops at the RST, so only bytes already in
+    flight can follow, and a stop that pre-empts a transfer goes out at once.
     """
 
     role = Role.HOST
@@ -562,19 +603,47 @@ class HostLink(Link):
         resend_gap: float = 0.25,
         resync_gap: float = 0.25,
         resend_grace: float = 0.5,
+        peer_resend_after: float | None = None,
+        max_wait: float = MAX_ANNOUNCED_WAIT,
+        abort_gap: float = 0.05,
     ):
         super().__init__(timeout=timeout, resend_gap=resend_gap)
         self.resync_gap = resync_gap
         self.resend_grace = resend_grace
+        self.peer_resend_after = timeout if peer_resend_after is None else peer_resend_after
+        """The controller's own resend timeout: an equal answer sooner than 90 % of it is new."""
+        self.max_wait = min(max_wait, MAX_ANNOUNCED_WAIT)
+        self.abort_gap = abort_gap
         self.shape = Shape.SINGLE
-        self._deferred: tuple[bytes, Shape] | None = None
+        self._deferred: tuple[bytes, Shape, bool, int | None] | None = None
         self._request_at = 0.0
+        self._limit_at: float | None = None  # the exchange's overall limit
+        self._max_packets = 1
+        self._packets = 0
+        self._bytes = 0
+        self._maybe_answer = b""  # a read's copy taken for a resend, delivered if nothing else
+        self._aborting = False
 
     # -- application calls -----------------------------------------------------------------
-    def send_request(self, data: bytes, shape: Shape, now: float) -> list[LinkEvent]:
-        """Start an exchange with a request packet's data (``FF G1 G2 params``)."""
+    def send_request(
+        self,
+        data: bytes,
+        shape: Shape,
+        now: float,
+        *,
+        once: bool = False,
+        max_packets: int | None = None,
+    ) -> list[LinkEvent]:
+        """Start an exchange with a request packet's data (``FF G1 G2 params``).
+
+        ``once``: the request changes state, so it is never resent on a NAK that may be a
+        doubled one. ``max_packets``: the most answer packets (MULTI; END included) the
+        command can carry; past it (or its bytes) the answer is cut with RST (TOO_LONG).
+        """
         self._now = now
         self._pending_shape = shape
+        self._pending_once = once
+        self._pending_max = max_packets
         self._fire(Input.SEND_REQUEST, data)
         self._take_backlog()
         return self._take_events()
@@ -598,24 +667,79 @@ class HostLink(Link):
         self.shape = self._pending_shape
         self._corrupt = 0
         self._request_at = self._now
+        self._send_once = self._pending_once or self.shape is Shape.UPLOAD
+        self._doubt = ""
+        self._maybe_answer = b""
+        self._packets = self._bytes = 0
+        if self.shape is Shape.MULTI:
+            self._max_packets = self._pending_max or MAX_MULTI_PACKETS
+        else:
+            self._max_packets = 2 if self.shape is Shape.TWO_PHASE else 1
         if self.shape is Shape.UPLOAD:
             # FB's replies are never ACKed: a later copy of the answer before it is no resend.
             self._last_received = b""
+            self._limit_at = None  # each line is its own transmission, each with a timer
+        else:
+            per_packet = self.timeout + self.resend_grace
+            self._limit_at = (
+                self._now + self.timeout * (MAX_NAKS + 1) + per_packet * self._max_packets
+            )
         self._send_packet(data)
         self.state = State.UPLOAD_WAIT_REPLY if self.shape is Shape.UPLOAD else State.WAIT_ANSWER
         self._arm(self.timeout)
 
+    def _arm(self, seconds: float) -> None:
+        super()._arm(seconds)
+        self._clamp()
+
+    def _extend(self, seconds: float) -> None:
+        super()._extend(seconds)
+        self._clamp()
+
+    def _clamp(self) -> None:
+        """No timer of an exchange runs past the exchange's overall limit."""
+        limit = self._limit_at
+        if limit is not None and self.busy and self._deadline is not None:
+            self._deadline = min(self._deadline, limit)
+
+    def _finish(self, event: LinkEvent) -> None:
+        self._limit_at = None
+        super()._finish(event)
+
+    def _fail(
+        self,
+        reason: FailReason,
+        detail: str = "",
+        *,
+        send_rst: bool,
+        error: LinkRuleError | None = None,
+    ) -> None:
+        self._limit_at = None
+        super()._fail(reason, detail, send_rst=send_rst, error=error)
+
     def _after_rst(self) -> None:
         self._last_received = b""  # nothing of an exchange we reset is to be ACKed again
-        if self.resync_gap > 0:
+        # After our own abort the controller stops at the RST: only bytes already in flight
+        # can follow, so a short gap does (a stop pre-empting a transfer goes out at once).
+        # After a timeout or a broken rule, an answer may still be held back anywhere on the
+        # way: the whole gap.
+        gap = self.abort_gap if self._aborting else self.resync_gap
+        if gap > 0:
             self.state = State.RESYNC
-            self._arm(self.resync_gap)
+            self._arm(gap)
+
+    def _abort(self, data: bytes) -> None:
+        self._aborting = True
+        try:
+            super()._abort(data)
+        finally:
+            self._aborting = False
 
     def _h_defer_request(self, data: bytes) -> None:
         if self._deferred is not None:
             raise LinkRuleError("host", self.state.value, Input.SEND_REQUEST.value, "one waits")
         encode_packet(data)  # a bad request is refused now, not when the gap ends
-        self._deferred = (data, self._pending_shape)
+        self._deferred = (data, self._pending_shape, self._pending_once, self._pending_max)
 
     def _h_drop_deferred(self, data: bytes) -> None:
         if self._deferred is not None:
@@ -626,8 +750,8 @@ class HostLink(Link):
         self.state = State.IDLE
         deferred, self._deferred = self._deferred, None
         if deferred is not None:
-            self._pending_shape = deferred[1]
-            self._h_send_request(deferred[0])
+            data, self._pending_shape, self._pending_once, self._pending_max = deferred
+            self._h_send_request(data)
 
     def _h_stray_packet(self, data: bytes) -> None:
         # An intact packet outside an exchange. A copy of the last answer we ACKed is the
@@ -655,19 +779,22 @@ class HostLink(Link):
         self._emit(Ignored("corrupt frame in the resync gap", self.state))
 
     def _is_resend(self, data: bytes) -> bool:
+        """Is ``data`` the controller resending the answer we ACKed last (our ACK was lost)?"""
         if data != self._last_received:
             return False
-        late = self._now - self._last_ack_at >= self.resend_gap
-        if self.state is State.WAIT_ANSWER:
-            # A copy of the previous exchange's last answer, arriving late, while our request
-            # went out right behind our ACK of it: the controller did not get that ACK in time
-            # and is resending (it resends only after its own timeout). A request sent later,
-            # or an answer that comes at once, is new.
-            return late and self._request_at - self._last_ack_at < self.resend_gap
         if self.state is State.WAIT_SECOND and len(split_answer(data).body) == 0:
             # CE's two answers are both a bare flag: a copy is the second answer, not a resend.
             return False
-        return late
+        # The controller resends only after its own timeout: a copy sooner than that is new
+        # data (a slow controller answering the same request with the same bytes).
+        if self._now - self._last_ack_at < 0.9 * self.peer_resend_after:
+            return False
+        if self.state is State.WAIT_ANSWER:
+            # The previous exchange's last answer again, late, while our request went out
+            # right behind our ACK of it: the controller did not get that ACK in time and is
+            # resending. A request sent later is answered after it: the copy is its answer.
+            return self._request_at - self._last_ack_at < self.resend_gap
+        return True
 
     def _ack(self, data: bytes) -> None:
         self._send_control(ACK)
@@ -679,6 +806,10 @@ class HostLink(Link):
         if self._is_resend(data):
             self._ack(data)
             self._emit(Ignored("resent answer (ACKed again)", self.state))
+            if self.state is State.WAIT_ANSWER and not self._send_once:
+                # It could also be a very slow controller's answer: a read takes it if no
+                # other answer comes (a state change would rather be unknown than wrong).
+                self._maybe_answer = data
             # Never shorten the wait: in WAIT_SECOND it runs to the announced work time.
             self._extend(self.timeout + self.resend_grace)
             return
@@ -687,6 +818,13 @@ class HostLink(Link):
             self._rule_broken(
                 LinkRuleError("host", self.state.value, "packet", f"unknown flag in {data!r}")
             )
+            return
+        self._packets += 1
+        self._bytes += len(data)
+        if self._packets > self._max_packets or self._bytes > self._max_packets * MAX_PACKET:
+            what = f"{self._packets} packets, {self._bytes} bytes"
+            limit = f"{self._max_packets} packets of at most {MAX_PACKET} bytes"
+            self._fail(FailReason.TOO_LONG, f"{what}: more than {limit}", send_rst=True)
             return
         self._ack(data)
         if flag in _ERROR_FLAGS:
@@ -709,16 +847,43 @@ class HostLink(Link):
             )
             return
         if shape is Shape.TWO_PHASE and self.state is State.WAIT_ANSWER:
+            wait = _expected_wait(data)
+            if wait is None:
+                self._rule_broken(
+                    LinkRuleError(
+                        "host",
+                        self.state.value,
+                        "first answer",
+                        f"announced wait {split_answer(data).body!r} is not two digits",
+                    )
+                )
+                return
             self._emit(AnswerReceived(data, flag, final=False))
             self.state = State.WAIT_SECOND
-            self._arm(_expected_wait(data) + self.timeout + self.resend_grace)
+            wait = min(wait, self.max_wait)
+            if self._limit_at is not None:
+                self._limit_at += wait
+            self._arm(wait + self.timeout + self.resend_grace)
             return
         self._emit(AnswerReceived(data, flag, final=True))
         self._finish(ExchangeComplete())
 
     def _h_timeout(self, data: bytes) -> None:
+        if self.state is State.WAIT_ANSWER and self._maybe_answer:
+            # A read whose only answer was an equal copy of the previous one, taken for a
+            # resend: nothing else came, so it was a slow controller's answer after all.
+            answer, self._maybe_answer = self._maybe_answer, b""
+            self._emit(AnswerReceived(answer, _flag_of(answer), final=True))
+            self._finish(ExchangeComplete())
+            return
+        if self._limit_at is not None and self._now >= self._limit_at:
+            detail = "the exchange ran past its overall limit"
+        else:
+            detail = f"no answer within {self.timeout:g} s"
+        if self._doubt:
+            detail += f" ({self._doubt})"
         # Resync: RST returns the controller to its idle state too.
-        self._fail(FailReason.TIMEOUT, f"no answer within {self.timeout:g} s", send_rst=True)
+        self._fail(FailReason.TIMEOUT, detail, send_rst=True)
 
     def _h_upload_reply(self, data: bytes) -> None:
         self._good_packet()
@@ -891,8 +1056,12 @@ def _flag_of(data: bytes) -> int:
         return -1
 
 
-def _expected_wait(data: bytes) -> float:
-    """Seconds of a two-phase first answer's expected wait (DB/DC: two digits; CE: none)."""
-    body = split_answer(data).body
-    text = body.decode("ascii", "replace").strip()
-    return float(text) if text.isdigit() else 0.0
+def _expected_wait(data: bytes) -> float | None:
+    """Seconds of a two-phase first answer's expected wait: DB/DC carry two digits (spaces or
+    one digit tolerated), CE nothing (0). None: not a wait (the answer is malformed)."""
+    text = split_answer(data).body.decode("ascii", "replace").strip()
+    if not text:
+        return 0.0
+    if len(text) > 2 or not text.isdigit() or not text.isascii():
+        return None
+    return float(text)
