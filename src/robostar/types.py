@@ -252,6 +252,9 @@ class JobFile:
     """A JOB file's content as FA downloads it: one string per step, ``MAIN`` to ``EOP``."""
 
     lines: tuple[str, ...]
+    announced: int | None = field(default=None, compare=False)
+    """FA's first packet, JOB MAX STEP, as the controller sent it: a count on some controllers,
+    the capacity (e.g. 2000) on others; kept for whoever wants it, never checked against."""
 
     @property
     def max_step(self) -> int:
@@ -266,6 +269,9 @@ class PointFile:
     """
 
     points: dict[int, Point]
+    announced: int | None = field(default=None, compare=False)
+    """FA's first packet, MAX Point, as the controller sent it (the highest point, or the
+    file's capacity); kept, never checked against."""
 
     @property
     def max_point(self) -> int:

@@ -213,9 +213,7 @@ def test_fa_empty_files() -> None:
 @pytest.mark.parametrize(
     "packets",
     [
-        [JOB_ANSWER[0], JOB_ANSWER[1], JOB_ANSWER[3], JOB_ANSWER[4]],  # a line lost
         [JOB_ANSWER[0], JOB_ANSWER[1], JOB_ANSWER[2], JOB_ANSWER[2], JOB_ANSWER[3], JOB_ANSWER[4]],
-        [b"\xff0" + b"0004", *JOB_ANSWER[1:]],  # announced more than sent
         [b"\xff4"],  # no size packet
         JOB_ANSWER[:-1],  # not closed by 0x34
     ],
@@ -225,18 +223,36 @@ def test_fa_job_integrity_errors(packets: list[bytes]) -> None:
         DownloadFile(1, RS_JOB).decode_answer(packets)
 
 
+def test_fa_pnt_point_sent_twice_is_an_error() -> None:
+    packets = [PNT_ANSWER[0], PNT_ANSWER[1], PNT_ANSWER[1], PNT_ANSWER[2], PNT_ANSWER[3]]
+    with pytest.raises(MalformedAnswerError, match="twice"):
+        DownloadFile(1, RS_PNT).decode_answer(packets)
+
+
+# MAX STEP / MAX Point is a count on some controllers and the capacity on others (the manual's
+# own example announces "2000" before a short job, issue #19): END ends the file, the figure is
+# kept and never failed on.
+@pytest.mark.parametrize("announced", [b"0003", b"2000", b"9999", b" 200", b"+003"])
+def test_fa_job_max_step_may_be_the_count_or_the_capacity(announced: bytes) -> None:
+    packets = [b"\xff0" + announced, *JOB_ANSWER[1:]]
+    result = DownloadFile(1, RS_JOB).decode_answer(packets)
+    assert result == JOB
+    assert isinstance(result, JobFile) and result.announced == int(announced)
+
+
 @pytest.mark.parametrize(
-    ("packets", "why"),
+    "packets",
     [
-        ([PNT_ANSWER[0], PNT_ANSWER[1], PNT_ANSWER[1], PNT_ANSWER[2], PNT_ANSWER[3]], "twice"),
-        ([b"\xff0" + b"0005", *PNT_ANSWER[1:]], "above"),
-        ([PNT_ANSWER[0], PNT_ANSWER[1], PNT_ANSWER[3]], "not sent"),
-        ([b"\xff0" + b"0008", b"\xff4"], "not sent"),
+        [b"\xff0" + b"0005", *PNT_ANSWER[1:]],  # a point above the figure
+        [PNT_ANSWER[0], PNT_ANSWER[1], PNT_ANSWER[3]],  # the announced point not sent
+        [b"\xff0" + b"2000", *PNT_ANSWER[1:]],  # the capacity
     ],
 )
-def test_fa_pnt_integrity_errors(packets: list[bytes], why: str) -> None:
-    with pytest.raises(MalformedAnswerError, match=why):
-        DownloadFile(1, RS_PNT).decode_answer(packets)
+def test_fa_pnt_max_point_is_kept_not_checked(packets: list[bytes]) -> None:
+    result = DownloadFile(1, RS_PNT).decode_answer(packets)
+    assert isinstance(result, PointFile)
+    assert result.announced == int(packets[0][2:])
+    assert set(result.points) <= set(PNT.points)
 
 
 def test_fa_result_must_match_the_file_kind() -> None:

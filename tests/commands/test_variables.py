@@ -179,11 +179,33 @@ def test_gr_float_answer_both_ways() -> None:
     assert ReadGlobalFloat(45).decode_answer([b"0" + b"12345.123"]) == 12345.123
     assert ReadGlobalFloat(45).encode_answer(12345.123) == [b"0" + b"12345.123"]
     assert ReadGlobalFloat(45).encode_answer(-1.25) == [b"0" + b"   -1.250"]
-    with pytest.raises(FieldError):
-        ReadGlobalFloat(45).decode_answer([b"0" + b"123456.123"])
+
+
+@pytest.mark.parametrize(
+    ("body", "value"),
+    [
+        (b"123456.123", 123456.123),  # 10 bytes: a value GW accepted (issue #19)
+        (b"12345.123 ", 12345.123),  # left-aligned, as the manual draws it
+        (b"+0012.5", 12.5),  # explicit sign, leading zeros, fewer decimals
+        (b"  -1.250", -1.25),
+        (b"7", 7.0),
+    ],
+)
+def test_gr_float_is_read_in_any_width_and_padding(body: bytes, value: float) -> None:
+    assert ReadGlobalFloat(45).decode_answer([b"0" + body]) == value
+
+
+def test_gr_float_sends_nine_bytes_and_ten_only_when_needed() -> None:
+    assert ReadGlobalFloat(45).encode_answer(123456.0) == [b"0" + b"123456.000"]
     with pytest.raises(FieldError) as exc:
-        ReadGlobalFloat(45).encode_answer(123456.0)
+        ReadGlobalFloat(45).encode_answer(1234567.0)
     assert exc.value.field == "value"
+
+
+@pytest.mark.parametrize("body", [b"", b"12.3456", b"1 2", b"abc", b"1.2.3"])
+def test_gr_float_that_is_not_a_number_is_refused(body: bytes) -> None:
+    with pytest.raises((FieldError, MalformedAnswerError)):
+        ReadGlobalFloat(45).decode_answer([b"0" + body])
 
 
 @pytest.mark.parametrize(

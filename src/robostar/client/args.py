@@ -120,5 +120,5 @@ def axes(value: object, name: str) -> tuple[float, ...]:
     for i, item in enumerate(value, 1):
         # The wire's own check (finite, fits 10 bytes with 3 decimals), named as the caller
         # wrote the argument.
-        encode_coord("", f"{name} axis {i}", item)
+        encode_coord("", f"{name} axis {i}", item, exact=True)
     return tuple(float(item) for item in value)

@@ -266,7 +266,7 @@ def set_fields(obj: object, **values: object) -> None:
 
 def file_arg(value: FileName | str) -> FileName:
     """A file argument kept as a FileName, so that a request equals its decoded copy."""
-    return FileName.parse(value) if isinstance(value, str) else value
+    return FileName.exact(value) if isinstance(value, str) else value
 
 
 def encode_file_of_kind(command: str, file: FileName, kind: str) -> bytes:
@@ -291,11 +291,17 @@ def _axis_field(field: str, axis: int) -> str:
 
 
 def encode_axes(
-    command: str, values: Iterable[float], field: str = "", width: int = COORD_WIDTH
+    command: str,
+    values: Iterable[float],
+    field: str = "",
+    width: int = COORD_WIDTH,
+    *,
+    exact: bool = False,
 ) -> bytes:
-    """Axis values side by side, ``width`` bytes each with 3 decimals (``"{field} axis N"``)."""
+    """Axis values side by side, ``width`` bytes each with 3 decimals (``"{field} axis N"``);
+    ``exact``: refuse a value finer than 0.001 (a request) instead of rounding it."""
     return b"".join(
-        encode_coord(command, _axis_field(field, axis), value, width)
+        encode_coord(command, _axis_field(field, axis), value, width, exact=exact)
         for axis, value in enumerate(values, 1)
     )
 

@@ -71,7 +71,7 @@ ALARM_CHANNELS = (1, 2, 3, 9)
 def _as_name(command: str, field: str, value: object) -> FileName:
     """A FileName from a FileName or str argument, checked against the manual's name rules."""
     if isinstance(value, str):
-        value = FileName.parse(value)
+        value = FileName.exact(value, command, field)
     if not isinstance(value, FileName):
         raise FieldError(command, field, f"must be a FileName or str, not {type(value).__name__}")
     return value.check(command, field)
@@ -158,11 +158,11 @@ def parse_point_line(
 class DownloadFile(Command[JobFile | PointFile]):
     """FA: download a JOB or PNT file from the controller, one step or point per packet.
 
-    The first packet announces the max step (JOB) or the highest point number (PNT); decoding
-    checks the packets against it, so a lost or duplicated packet never yields a wrong file:
-    a JOB file must have exactly that many lines, and a PNT file no duplicate point, none above
-    the announced number, and the announced point itself (the manual: "the highest point number
-    stored in the file"). ``coords`` (PNT_TYPE) picks angle or XY data for a PNT file.
+    The first packet announces the max step (JOB) or the max point (PNT): a count on some
+    controllers, the capacity on others. The END packet ends the file; the figure is kept on the
+    result (``announced``) and never failed on, except that a JOB may not be longer than
+    announced (a packet was duplicated) and a PNT file may not hold a point twice.
+    ``coords`` (PNT_TYPE) picks angle or XY data for a PNT file.
     """
 
     CODE = "FA"
@@ -196,30 +196,26 @@ class DownloadFile(Command[JobFile | PointFile]):
         if not bodies:
             raise MalformedAnswerError(self.CODE, "no packet announcing the file's size")
         announced = parse_int(self.CODE, "max number", bodies[0])
+        # The first packet is the controller's MAX STEP / MAX Point: a count on some
+        # controllers, the capacity on others (the manual's example announces 2000 before a
+        # short job). The END packet ends the file; the figure is kept, never held against it.
         if self._is_job():
             lines = tuple(_line_text(body) for body in bodies[1:])
-            if len(lines) != announced:
+            if announced < len(lines):
+                # Neither a count nor a capacity can be below the steps sent.
                 raise MalformedAnswerError(
                     self.CODE,
-                    f"announced {announced} steps but sent {len(lines)}: "
-                    "a packet was lost or duplicated",
+                    f"announced at most {announced} steps but sent {len(lines)}: "
+                    "a packet was duplicated",
                 )
-            return JobFile(lines)
+            return JobFile(lines, announced=announced)
         points: dict[int, Point] = {}
         for body in bodies[1:]:
             number, point = parse_point_line(body.decode("ascii", "replace"), command=self.CODE)
             if number in points:
                 raise MalformedAnswerError(self.CODE, f"point {number} sent twice", body)
-            if number > announced:
-                raise MalformedAnswerError(
-                    self.CODE, f"point {number} is above the announced max {announced}", body
-                )
             points[number] = point
-        if (points or announced) and announced not in points:
-            raise MalformedAnswerError(
-                self.CODE, f"the announced max point {announced} was not sent: a packet was lost"
-            )
-        return PointFile(points)
+        return PointFile(points, announced=announced)
 
     def encode_answer(self, result: JobFile | PointFile) -> list[bytes]:
         if self._is_job():

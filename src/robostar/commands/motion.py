@@ -64,7 +64,7 @@ def _encode_axes(command: str, field: str, values: Sequence[float]) -> bytes:
     if isinstance(values, str | bytes) or not isinstance(values, Sequence):
         raise FieldError(command, field, "must be a sequence of axis values")
     check_range(command, f"{field} axis count", len(values), 1, MAX_AXES)
-    return encode_axes(command, values, field)
+    return encode_axes(command, values, field, exact=True)
 
 
 def _read_points(reader: Reader, names: Sequence[str], field: str) -> tuple[tuple[float, ...], ...]:

@@ -27,6 +27,7 @@ from robostar.protocol.fields import (
     encode_channel,
     encode_code,
     encode_coord,
+    parse_coord,
 )
 from robostar.types import ArmForm, CoordSystem, GlobalKind, Point
 
@@ -93,7 +94,9 @@ def _read_point_params(reader: Reader) -> tuple[int, CoordSystem, int, int]:
     return channel, coords, axis, index
 
 
-def _encode_point(command: str, point: Point, axis: int, *, arm: bool) -> bytes:
+def _encode_point(
+    command: str, point: Point, axis: int, *, arm: bool, exact: bool = False
+) -> bytes:
     """Point data: all axes (6 x 10 bytes, missing axes as 0.0) + USED + ARM, or the one axis
     + USED (+ ARM when ``arm``, as GW sends it)."""
     if not isinstance(point, Point):
@@ -107,7 +110,7 @@ def _encode_point(command: str, point: Point, axis: int, *, arm: bool) -> bytes:
         )
     else:
         values = point.axes
-    data = encode_axes(command, values, "point")
+    data = encode_axes(command, values, "point", exact=exact)
     data += b"1" if point.used else b"0"
     if axis == 0 or arm:
         data += encode_code(command, "point arm", point.arm, 0, 2)
@@ -179,7 +182,7 @@ class WriteGlobalPoint(_Variant, NoData):
 
     def encode_params(self) -> bytes:
         head = _point_params(self.CODE, self.channel, self.coords, self.axis, self.index)
-        return head + _encode_point(self.CODE, self.point, self.axis, arm=True)
+        return head + _encode_point(self.CODE, self.point, self.axis, arm=True, exact=True)
 
     @classmethod
     def decode_params(cls, reader: Reader) -> Self:
@@ -257,13 +260,19 @@ class ReadGlobalFloat(_ReadValue, Command[float]):
     index: int
 
     def decode_answer(self, packets: Sequence[bytes]) -> float:
+        # The manual draws 9 bytes ("12345.123"), but a value GW accepted can take 10
+        # ("123456.123"): read the number in whatever width the controller sent it.
         r = self.single(packets)
-        value = r.coord("value", READ_FLOAT_WIDTH)
-        r.end()
-        return value
+        if r.remaining == 0:
+            raise MalformedAnswerError(self.CODE, "the answer holds no value")
+        return parse_coord(self.CODE, "value", r.rest(), fixed=False)
 
     def encode_answer(self, result: float) -> list[bytes]:
-        return [self.ok(encode_coord(self.CODE, "value", result, READ_FLOAT_WIDTH))]
+        # The manual's 9 bytes when the value fits; a value only GW's 10 bytes hold is sent
+        # in 10 (refusing a value the controller itself stored helps nobody).
+        text = f"{result:.3f}"
+        width = READ_FLOAT_WIDTH if len(text) <= READ_FLOAT_WIDTH else WRITE_FLOAT_WIDTH
+        return [self.ok(encode_coord(self.CODE, "value", result, width))]
 
 
 @dataclass(frozen=True, slots=True)
@@ -279,7 +288,7 @@ class WriteGlobalFloat(_Variant, NoData):
 
     def encode_params(self) -> bytes:
         return _value_index(self.CODE, self.KIND, self.index) + encode_coord(
-            self.CODE, "value", self.value, WRITE_FLOAT_WIDTH
+            self.CODE, "value", self.value, WRITE_FLOAT_WIDTH, exact=True
         )
 
     @classmethod

@@ -102,12 +102,32 @@ def encode_int(
     return text.encode("ascii")
 
 
-def encode_coord(command: str, field: str, value: float, width: int = COORD_WIDTH) -> bytes:
-    """A coordinate with 3 decimals, right-aligned and space-padded (``"  -123.450"``)."""
+COORD_RESOLUTION = 0.001
+"""A coordinate field's step: 3 decimals (mm, degrees)."""
+
+
+def encode_coord(
+    command: str, field: str, value: float, width: int = COORD_WIDTH, *, exact: bool = False
+) -> bytes:
+    """A coordinate with 3 decimals, right-aligned and space-padded (``"  -123.450"``).
+
+    ``exact`` (a request's value, as the caller gave it): a value finer than the field's
+    0.001 is refused rather than rounded, so what is sent is what was asked. Answers (a
+    controller's computed positions) are rounded to the field."""
     if isinstance(value, bool) or not isinstance(value, int | float):
         raise FieldError(command, field, f"must be a number, not {type(value).__name__}")
     if value != value or value in (float("inf"), float("-inf")):
         raise FieldError(command, field, f"{value} is not a finite number")
+    if exact:
+        steps = value / COORD_RESOLUTION
+        # Binary floats: 12.345 is 12344.999999999998 steps; allow that, not 0.0004's 0.4.
+        if abs(steps - round(steps)) > max(1e-9, abs(steps) * 1e-12):
+            raise FieldError(
+                command,
+                field,
+                f"{value!r} is finer than the field's resolution of {COORD_RESOLUTION} "
+                "(3 decimals): round it first",
+            )
     text = f"{value:>{width}.3f}"
     if text.strip() == "-0.000":
         text = f"{0.0:>{width}.3f}"
@@ -142,14 +162,16 @@ def parse_int(command: str, field: str, raw: bytes, *, flag: int = FLAG_REJECTED
     return int(text)
 
 
-def parse_coord(command: str, field: str, raw: bytes) -> float:
-    """A coordinate field (spaces stripped, up to 3 decimals), that a sender could have sent:
-    its value written with 3 decimals fits the field's width."""
+def parse_coord(command: str, field: str, raw: bytes, *, fixed: bool = True) -> float:
+    """A coordinate field: spaces on either side, leading zeros, an explicit sign and up to 3
+    decimals are all read. ``fixed`` (a field of set width): the value written with 3 decimals
+    must fit the width, as a sender could have sent it; a free-width field (GR's float, the
+    rest of its answer) takes whatever width the number has."""
     text = raw.decode("ascii", "replace").strip()
     if not re.fullmatch(r"[+-]?(\d+(\.\d{0,3})?|\.\d{1,3})", text):
         raise FieldError(command, field, f"{raw!r} is not a number with up to 3 decimals")
     value = float(text)
-    if len(f"{value:.3f}") > len(raw):
+    if fixed and len(f"{value:.3f}") > len(raw):
         raise FieldError(command, field, f"{raw!r} does not fit {len(raw)} bytes with 3 decimals")
     return value
 
@@ -213,7 +235,23 @@ class FileName:
     extension: str
 
     @classmethod
+    def exact(cls, text: str, command: str = "", field: str = "file name") -> FileName:
+        """``text`` as a FileName, as the caller wrote it: a name that the wire would change
+        (spaces, NUL and other control characters, which :meth:`parse` drops from a padded
+        field) is refused with the rule, never silently changed."""
+        name = cls.parse(text)
+        if str(name) != text or any(c.isspace() or not c.isprintable() for c in text):
+            raise FieldError(
+                command or "-",
+                field,
+                f"{text!r}: a name may hold only letters, digits and _ and one dot "
+                "(no spaces or control characters)",
+            )
+        return name
+
+    @classmethod
     def parse(cls, text: str) -> FileName:
+        """A name read from a field: padding spaces and NUL bytes are dropped."""
         text = text.replace(" ", "").replace("\x00", "")
         stem, dot, ext = text.rpartition(".")
         if not dot:
