@@ -45,7 +45,7 @@ from robostar.errors import (
 from robostar.protocol.fields import FileName
 from robostar.protocol.frame import ETX, STX
 from robostar.sim import SimConfig, VirtualController
-from robostar.sim.faults import Direction, FaultInjector, FaultKind
+from robostar.sim.faults import Direction, FaultInjector, FaultKind, FaultSpec
 from robostar.sim.filesystem import StoredJob
 from robostar.transport.inproc import PeerTransport
 from robostar.types import ArmForm, CoordSystem, JobFile, MotionType, Point
@@ -250,10 +250,18 @@ class Fault:
     kind: FaultKind
     count: int = 1
     delay: bool = False
+    latency: bool = False
+    """Hold every answer packet from this one on, jittered up to 0.8 of the controller's
+    resend time."""
 
     @property
     def per_packet(self) -> bool:
-        return self.kind is FaultKind.NAK_STORM
+        """Fires on whole packets: a NAK storm on the host's, a repeat or latency on answers."""
+        return self.kind in (FaultKind.NAK_STORM, FaultKind.REPEAT, FaultKind.LATENCY)
+
+    @property
+    def packets_of(self) -> Direction:
+        return Direction.TO_CONTROLLER if self.kind is FaultKind.NAK_STORM else Direction.TO_HOST
 
 
 FAULTS: tuple[Fault, ...] = (
@@ -266,6 +274,8 @@ FAULTS: tuple[Fault, ...] = (
     Fault("NAK x3", FaultKind.NAK_STORM, 3),
     Fault("RST", FaultKind.RST),
     Fault("disconnect", FaultKind.DISCONNECT),
+    Fault("repeat", FaultKind.REPEAT),
+    Fault("latency", FaultKind.LATENCY, count=100_000, latency=True),
 )
 DIRECTIONS = (Direction.TO_CONTROLLER, Direction.TO_HOST)
 
@@ -326,6 +336,8 @@ class Baseline:
     rx: int
     host_packets: tuple[int, ...]
     """Byte positions (to_controller) where the host's packets start."""
+    answer_packets: tuple[int, ...]
+    """Byte positions (to_host) where the controller's packets start."""
     wait: float
     """Seconds a two-phase answer announces (the host waits that much longer)."""
 
@@ -341,10 +353,12 @@ def baseline(case: Case, config: MatrixConfig) -> Baseline:
         tx, rx = trial.line.written, trial.line.received
         stream = b"".join(data for way, data in trial.line.trace if way == "tx")
         starts = tuple(i for i, byte in enumerate(stream) if byte == STX)
+        answers = b"".join(data for way, data in trial.line.trace if way == "rx")
+        answer_starts = tuple(i for i, byte in enumerate(answers) if byte == STX)
         after = case.observe(trial.sim)
     wait = float(result) if case.command.SHAPE is Shape.TWO_PHASE and result else 0.0
     executions = trial.sim.executions[case.command.CODE]
-    return Baseline(result, before, after, executions, tx, rx, starts, wait)
+    return Baseline(result, before, after, executions, tx, rx, starts, answer_starts, wait)
 
 
 @dataclass(frozen=True)
@@ -400,13 +414,27 @@ def run_cell(
     seconds = quiet = 0.0
     detail = ""
     with virtual_time(trial.clock):
-        trial.injector.schedule(
-            fault.kind,
-            direction,
-            at_byte=position,
-            count=fault.count,
-            seconds=config.timeout * config.delay_factor if fault.delay else 0.0,
-        )
+        if fault.latency:
+            trial.injector.add(
+                FaultSpec(
+                    fault.kind,
+                    direction,
+                    at_byte=position,
+                    count=fault.count,
+                    # A slow controller: up to 0.8 of its own resend time (beyond it, a
+                    # controller whose timer is that short resends every packet).
+                    seconds=0.8 * config.ack_timeout,
+                    low=0.1 * config.ack_timeout,
+                )
+            )
+        else:
+            trial.injector.schedule(
+                fault.kind,
+                direction,
+                at_byte=position,
+                count=fault.count,
+                seconds=config.timeout * config.delay_factor if fault.delay else 0.0,
+            )
         start = trial.clock.now
         trial.clock.arm(300.0)
         error: RobostarError | None = None
@@ -507,10 +535,13 @@ def _result(
 
 # -- the whole matrix ------------------------------------------------------------------------
 def positions(fault: Fault, direction: Direction, base: Baseline) -> Sequence[int]:
-    """Every byte position of the exchange in that direction; for a NAK storm (which answers a
-    whole host packet) every host packet's first byte."""
+    """Every byte position of the exchange in that direction; for a fault on whole packets (a
+    NAK storm answers a host packet; a repeat or a latency comes before an answer packet) the
+    first byte of every packet it can hit."""
     if fault.per_packet:
-        return base.host_packets if direction is Direction.TO_CONTROLLER else ()
+        if direction is not fault.packets_of:
+            return ()
+        return base.host_packets if direction is Direction.TO_CONTROLLER else base.answer_packets
     return range(base.tx if direction is Direction.TO_CONTROLLER else base.rx)
 
 
@@ -541,9 +572,10 @@ def run_row(
 
 
 def rows(cases: Sequence[Case] = CASES) -> Iterator[tuple[Case, Fault, Direction]]:
-    """Every (exchange, fault, direction) that has cells (a NAK storm only answers the host)."""
+    """Every (exchange, fault, direction) that has cells (a NAK storm only answers the host; a
+    repeat and a latency only touch answers)."""
     for case, fault, direction in itertools.product(cases, FAULTS, DIRECTIONS):
-        if not (fault.per_packet and direction is Direction.TO_HOST):
+        if not fault.per_packet or direction is fault.packets_of:
             yield case, fault, direction
 
 

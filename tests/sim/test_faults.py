@@ -506,3 +506,75 @@ def test_bad_api_arguments_are_refused() -> None:
     with pytest.raises(UsageError, match="seconds"):
         injector.add_rate("delay", 0.5)
     assert injector.pending == ()
+
+
+# -- a repeated previous answer, and answer latency (issues #11, #19) -------------------------
+def test_repeat_sends_the_previous_answer_again_before_this_one() -> None:
+    rec = Recorder()
+    injector = FaultInjector(rec)
+    assert answer_through(injector, rec) == ANSWER  # the first answer passes
+    injector.schedule(FaultKind.REPEAT)
+    second = encode_packet(b"\x30\x84\x80\x80")
+    injector.receive_data(REQUEST, 1.0)
+    rec.outbox += second
+    assert injector.data_to_send(1.0) == ANSWER + second
+    assert injector.injected[FaultKind.REPEAT, Direction.TO_HOST] == 1
+
+
+def test_repeat_with_no_previous_answer_sends_nothing_extra() -> None:
+    rec = Recorder()
+    injector = FaultInjector(rec)
+    injector.schedule(FaultKind.REPEAT)
+    assert answer_through(injector, rec) == ANSWER
+
+
+def test_repeat_is_only_for_answers() -> None:
+    with pytest.raises(UsageError, match="to_host"):
+        FaultInjector(Recorder()).schedule(FaultKind.REPEAT, Direction.TO_CONTROLLER)
+
+
+def test_a_fixed_latency_holds_every_answer_packet() -> None:
+    rec = Recorder()
+    injector = FaultInjector(rec)
+    injector.add("latency:0.3")
+    for start in (0.0, 5.0):
+        injector.receive_data(REQUEST, start)
+        rec.outbox += ANSWER
+        assert injector.data_to_send(start) == b""
+        assert injector.next_deadline() == pytest.approx(start + 0.3)
+        assert injector.data_to_send(start + 0.2999) == b""
+        assert injector.data_to_send(start + 0.3) == ANSWER
+
+
+def test_a_jittered_latency_stays_within_its_bounds() -> None:
+    rec = Recorder()
+    injector = FaultInjector(rec, seed=11)
+    injector.add("latency:0.5:0.1")
+    holds = []
+    for k in range(20):
+        start = 10.0 * k
+        injector.receive_data(REQUEST, start)
+        rec.outbox += ANSWER
+        injector.data_to_send(start)
+        deadline = injector.next_deadline()
+        assert deadline is not None
+        holds.append(deadline - start)
+        assert injector.data_to_send(deadline) == ANSWER
+    assert all(0.1 - 1e-9 <= h <= 0.5 + 1e-9 for h in holds)
+    assert max(holds) - min(holds) > 0.1  # it does jitter
+
+
+@pytest.mark.parametrize(
+    "spec", ["latency:0.3", "latency:0.5:0.1", "repeat", "repeat@3*2", "latency:0.2@0*4"]
+)
+def test_new_kinds_round_trip_through_their_spec(spec: str) -> None:
+    parsed = parse_fault(spec)
+    assert parse_fault(str(parsed)) == parsed
+
+
+@pytest.mark.parametrize(
+    "spec", ["latency", "latency:0.1:0.5", "repeat:0.5:to_host", "dup:0.1:0.2"]
+)
+def test_bad_new_specs_are_refused(spec: str) -> None:
+    with pytest.raises(UsageError):
+        parse_fault(spec)

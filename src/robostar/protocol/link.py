@@ -813,6 +813,13 @@ class HostLink(Link):
             # Never shorten the wait: in WAIT_SECOND it runs to the announced work time.
             self._extend(self.timeout + self.resend_grace)
             return
+        if data == self._last_received and any(isinstance(e, Packet) for e in self._backlog):
+            # A copy of the packet we ACKed last with another packet right behind it, in the
+            # same read: the controller sent it without waiting for an ACK, which a controller
+            # answering us never does (it sends the next packet only after our ACK, and
+            # resends only after its timeout). It repeats its previous answer: not data.
+            self._emit(Ignored("a repeat of the last packet, sent without waiting", self.state))
+            return
         flag = _flag_of(data)
         if flag not in (FLAG_OK, FLAG_END) and flag not in _ERROR_FLAGS:
             self._rule_broken(

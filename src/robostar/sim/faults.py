@@ -71,13 +71,29 @@ class FaultKind(enum.Enum):
     DISCONNECT = "disconnect"
     """Cut the line: this byte and everything after it is lost until the connection is closed
     (the server reads :meth:`FaultInjector.take_disconnect` and closes it)."""
+    REPEAT = "repeat"
+    """Answers only: send the controller's previous packet again, whole, before this one (a
+    peer repeating its previous answer)."""
+    LATENCY = "latency"
+    """Hold each packet for ``seconds`` (jittered: a random time between ``low`` and
+    ``seconds``) before it goes on: a slow controller, a device server with latency."""
 
 
 _BYTE_KINDS = frozenset((FaultKind.CORRUPT, FaultKind.DROP, FaultKind.DUPLICATE))
 """Kinds where COUNT means that many consecutive bytes."""
-_PACKET_KINDS = frozenset((FaultKind.CORRUPT_LRC, FaultKind.NAK_STORM))
+_PACKET_KINDS = frozenset(
+    (FaultKind.CORRUPT_LRC, FaultKind.NAK_STORM, FaultKind.REPEAT, FaultKind.LATENCY)
+)
 """Kinds where COUNT means that many packets."""
-_PER_PACKET_RATE = frozenset((FaultKind.CORRUPT_LRC, FaultKind.NAK_STORM, FaultKind.DELAY))
+_PER_PACKET_RATE = frozenset(
+    (
+        FaultKind.CORRUPT_LRC,
+        FaultKind.NAK_STORM,
+        FaultKind.DELAY,
+        FaultKind.REPEAT,
+        FaultKind.LATENCY,
+    )
+)
 """Kinds whose rate is a chance per packet, not per byte."""
 _KIND_NAMES = {kind.value: kind for kind in FaultKind} | {
     "corrupt_lrc": FaultKind.CORRUPT_LRC,
@@ -117,7 +133,8 @@ class FaultSpec:
     """One fault: probabilistic when ``rate`` is set, else scheduled at ``at_byte``.
 
     ``count`` is consecutive bytes for corrupt/drop/dup and packets for corrupt-lrc/nak;
-    ``seconds`` is the hold of a delay; ``mask`` the bits a scheduled corrupt flips.
+    ``seconds`` is the hold of a delay or a latency (``low``: a latency's shortest hold, for
+    jitter); ``mask`` the bits a scheduled corrupt flips.
     """
 
     kind: FaultKind
@@ -127,11 +144,12 @@ class FaultSpec:
     count: int = 1
     seconds: float = 0.0
     mask: int | None = None
+    low: float | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "kind", _as_kind(self.kind))
         object.__setattr__(self, "direction", _as_direction(self.direction))
-        for name in ("rate", "seconds"):
+        for name in ("rate", "seconds", "low"):
             value = getattr(self, name)
             if value is not None and (
                 isinstance(value, bool) or not isinstance(value, int | float)
@@ -141,6 +159,10 @@ class FaultSpec:
         kind, direction = self.kind, self.direction
         if kind is FaultKind.NAK_STORM and direction is not Direction.TO_CONTROLLER:
             raise _usage(text, "a NAK storm answers host packets: direction is to_controller")
+        if kind is FaultKind.REPEAT and direction is not Direction.TO_HOST:
+            raise _usage(
+                text, "repeat sends the controller's previous answer: direction is to_host"
+            )
         if self.rate is not None:
             if not (math.isfinite(self.rate) and 0.0 < self.rate <= 1.0):
                 hint = f"; for {self.rate:g} packets write {kind.value}*{self.rate:g}"
@@ -156,11 +178,16 @@ class FaultSpec:
             raise _usage(text, f"count {self.count!r} is not 1 or more")
         if self.count != 1 and kind not in _BYTE_KINDS | _PACKET_KINDS:
             raise _usage(text, f"{kind.value} takes no *COUNT")
-        if kind is FaultKind.DELAY:
+        if kind in (FaultKind.DELAY, FaultKind.LATENCY):
             if not (math.isfinite(self.seconds) and self.seconds > 0):
-                raise _usage(text, f"delay seconds {self.seconds!r} must be more than 0")
+                raise _usage(text, f"{kind.value} seconds {self.seconds!r} must be more than 0")
         elif self.seconds:
             raise _usage(text, f"{kind.value} takes no seconds")
+        if self.low is not None:
+            if kind is not FaultKind.LATENCY:
+                raise _usage(text, "only a latency takes a shortest hold")
+            if not (math.isfinite(self.low) and 0 <= self.low <= self.seconds):
+                raise _usage(text, f"latency low {self.low!r} must be 0..{self.seconds:g} s")
         if self.mask is not None:
             if kind is not FaultKind.CORRUPT or self.rate is not None:
                 raise _usage(text, "only a scheduled corrupt takes a mask")
@@ -171,8 +198,12 @@ class FaultSpec:
 
     def __str__(self) -> str:
         parts = [self.kind.value, self.direction.value]
-        if self.kind is FaultKind.DELAY:
+        if self.kind in (FaultKind.DELAY, FaultKind.LATENCY):
             parts.append(f"{self.seconds:g}")
+        if self.low is not None:
+            parts.append(f"{self.low:g}")
+        if self.rate is not None and self.kind is FaultKind.LATENCY:
+            return ":".join(parts)
         if self.rate is not None:
             parts.append(f"{self.rate:g}")
             return ":".join(parts)
@@ -199,7 +230,9 @@ def parse_fault(spec: str) -> FaultSpec:
 
     Without a direction, a rate fault hits both wires, a scheduled one the answers (``to_host``),
     and ``nak`` the host's packets. For ``delay`` the first number is the hold in seconds and a
-    second one the rate per packet; for the other kinds a number is a rate (0 < rate <= 1).
+    second one the rate per packet; ``latency:MAX[:MIN]`` holds every answer packet MAX seconds
+    (or a random time between MIN and MAX); ``repeat`` sends the controller's previous packet
+    again; for the other kinds a number is a rate (0 < rate <= 1).
     Without a rate the fault is scheduled at byte AT (default 0) of the next exchange.
     """
     if not isinstance(spec, str) or not spec.strip():
@@ -222,10 +255,17 @@ def parse_fault(spec: str) -> FaultSpec:
         direction = _DIRECTION_NAMES[rest.pop(0)]
     numbers = [_number(spec, item, "seconds or rate") for item in rest]
     seconds = 0.0
-    if kind is FaultKind.DELAY:
+    low: float | None = None
+    if kind in (FaultKind.DELAY, FaultKind.LATENCY):
         if not numbers:
-            raise _usage(spec, "delay needs its seconds, e.g. delay:0.5")
+            raise _usage(spec, f"{kind.value} needs its seconds, e.g. {kind.value}:0.5")
         seconds = numbers.pop(0)
+    if kind is FaultKind.LATENCY:
+        low = numbers.pop(0) if numbers else None
+        if numbers:
+            raise _usage(spec, "too many numbers (latency:MAX[:MIN])")
+        if at is None and count is None:
+            numbers = [1.0]  # every packet
     if len(numbers) > 1:
         raise _usage(spec, "too many numbers")
     rate = numbers[0] if numbers else None
@@ -234,6 +274,8 @@ def parse_fault(spec: str) -> FaultSpec:
     if direction is None:
         if kind is FaultKind.NAK_STORM:
             direction = Direction.TO_CONTROLLER
+        elif kind in (FaultKind.REPEAT, FaultKind.LATENCY):
+            direction = Direction.TO_HOST
         else:
             direction = Direction.BOTH if rate is not None else Direction.TO_HOST
     return FaultSpec(
@@ -243,6 +285,7 @@ def parse_fault(spec: str) -> FaultSpec:
         at_byte=at or 0,
         count=1 if count is None else count,
         seconds=seconds,
+        low=low,
     )
 
 
@@ -320,6 +363,17 @@ class _Lane:
         self.hold_until = -math.inf  # a delay holds every byte after it until then
         self.swallowing = False  # inside a packet refused by a NAK storm
         self.cut = False
+        self.current = bytearray()  # the packet passing now, as it came
+        self.last_packet = b""  # the last whole packet that passed (for a repeat)
+
+    def track(self, byte: int, role: _Role) -> None:
+        if role is _Role.START:
+            self.current = bytearray((byte,))
+        elif role is _Role.DATA:
+            self.current.append(byte)
+        elif role is _Role.LRC:
+            self.current.append(byte)
+            self.last_packet = bytes(self.current)
 
     def emit(self, data: bytes, now: float) -> None:
         release = max(now, self.hold_until)
@@ -549,7 +603,7 @@ class FaultInjector:
         quiet = not (lane.rates or lane.armed or lane.swallowing or lane.cut)
         if quiet and (lane is host_lane or not host_lane.armed):
             for byte in data:
-                lane.framing.feed(byte)
+                lane.track(byte, lane.framing.feed(byte))
             lane.index += len(data)
             lane.emit(data, now)
             return
@@ -557,6 +611,8 @@ class FaultInjector:
             index = lane.index
             lane.index += 1
             role = lane.framing.feed(byte)
+            previous = lane.last_packet
+            lane.track(byte, role)
             if role is _Role.START and lane.direction is Direction.TO_CONTROLLER:
                 self._exchange_started(index)
             if lane.cut:
@@ -569,9 +625,11 @@ class FaultInjector:
                 if role is not _Role.START:
                     continue
                 lane.swallowing = False  # cut short by a new packet: judge that one afresh
-            self._apply(lane, byte, index, role, now)
+            self._apply(lane, byte, index, role, now, previous)
 
-    def _apply(self, lane: _Lane, byte: int, index: int, role: _Role, now: float) -> None:
+    def _apply(
+        self, lane: _Lane, byte: int, index: int, role: _Role, now: float, previous: bytes = b""
+    ) -> None:
         hits = self._firing(lane, index, role)
         if not hits:
             lane.emit(bytes((byte,)), now)
@@ -591,6 +649,12 @@ class FaultInjector:
         for spec in hits:
             if spec.kind is FaultKind.DELAY:
                 lane.hold_until = max(lane.hold_until, now + spec.seconds)
+            elif spec.kind is FaultKind.LATENCY:
+                low = spec.seconds if spec.low is None else spec.low
+                hold = low if low == spec.seconds else lane.rng.uniform(low, spec.seconds)
+                lane.hold_until = max(lane.hold_until, now + hold)
+        if FaultKind.REPEAT in kinds and previous:
+            lane.emit(previous, now)
         if FaultKind.RST in kinds:
             lane.emit(bytes((RST,)), now)
         if FaultKind.DROP in kinds:
