@@ -121,3 +121,115 @@ def test_async_a_waiter_cancelled_while_waiting_is_skipped() -> None:
         assert got == ["kept"] and doomed.cancelled()
 
     asyncio.run(main())
+
+
+# -- Ctrl-C at any point (issue #11) ----------------------------------------------------------
+def test_ctrl_c_at_any_moment_never_breaks_a_shared_clients_lock() -> None:
+    # The main thread calls the client over and over while a timer interrupts it (as Ctrl-C
+    # does) at every kind of moment; four other threads share the client all along. No
+    # interrupt may leave the lock held or raise "release unlocked lock", and every thread's
+    # next call works. (The simulator is served from its own thread, as a real controller is
+    # out of reach of the host's Ctrl-C.)
+    import _thread
+    import random
+
+    from robostar import Client
+    from robostar.sim import SimConfig, VirtualController
+    from robostar.sim.server import SimServer
+
+    stop = threading.Event()
+    errors: list[BaseException] = []
+    done = [0, 0, 0, 0]
+    interrupts = 0
+
+    with SimServer(VirtualController(SimConfig())) as server:
+        client = Client(server.url, timeout=0.5)
+
+        def worker(slot: int) -> None:
+            while not stop.is_set():
+                try:
+                    client.status()
+                    done[slot] += 1
+                except Exception as exc:
+                    errors.append(exc)
+                    return
+
+        def interrupter() -> None:
+            rng = random.Random(7)
+            for _ in range(600):
+                time.sleep(rng.uniform(0.0, 0.002))
+                _thread.interrupt_main()
+            stop.set()
+
+        def calls() -> None:
+            nonlocal interrupts
+            while not stop.is_set():
+                try:
+                    client.status()
+                except KeyboardInterrupt:
+                    interrupts += 1
+
+        threads = [threading.Thread(target=worker, args=(i,)) for i in range(len(done))]
+        threads.append(threading.Thread(target=interrupter))
+        for thread in threads:
+            thread.start()
+        while not stop.is_set():
+            try:
+                calls()
+            except KeyboardInterrupt:  # one landed between the loop's own bytecodes
+                interrupts += 1
+        for thread in threads:
+            thread.join(10)
+        try:
+            time.sleep(0.05)  # an interrupt still pending lands here
+        except KeyboardInterrupt:
+            interrupts += 1
+        try:
+            assert not errors, errors[:3]
+            assert interrupts > 50
+            assert all(n > 0 for n in done)
+            started = time.monotonic()
+            assert client.status()[0].ready  # the lock is free and the link is in step
+            assert time.monotonic() - started < 2.0
+        finally:
+            client.close()
+
+
+def test_cancelling_tasks_at_any_moment_never_breaks_a_shared_async_client() -> None:
+    import random
+
+    from robostar import AsyncClient
+    from robostar.sim import SimConfig, VirtualController
+    from robostar.sim.server import SimServer
+
+    async def main(url: str) -> tuple[int, int]:
+        rng = random.Random(3)
+        cancelled = finished = 0
+        async with AsyncClient(url, timeout=0.5) as client:
+
+            async def calls() -> None:
+                while True:
+                    await client.status()
+
+            tasks = [asyncio.create_task(calls()) for _ in range(4)]
+            for _ in range(300):
+                await asyncio.sleep(rng.uniform(0.0, 0.003))
+                k = rng.randrange(len(tasks))
+                tasks[k].cancel()
+                try:
+                    await tasks[k]
+                except asyncio.CancelledError:
+                    cancelled += 1
+                tasks[k] = asyncio.create_task(calls())
+            for task in tasks:
+                task.cancel()
+            await asyncio.gather(*tasks, return_exceptions=True)
+            started = time.monotonic()
+            assert (await client.status())[0].ready
+            assert time.monotonic() - started < 2.0
+            finished = 1
+        return cancelled, finished
+
+    with SimServer(VirtualController(SimConfig())) as server:
+        cancelled, finished = asyncio.run(main(server.url))
+    assert cancelled == 300 and finished == 1

@@ -622,6 +622,7 @@ class HostLink(Link):
         self._packets = 0
         self._bytes = 0
         self._maybe_answer = b""  # a read's copy taken for a resend, delivered if nothing else
+        self._last_reply = b""  # FB: the controller's last reply to one of our packets
         self._aborting = False
 
     # -- application calls -----------------------------------------------------------------
@@ -678,6 +679,7 @@ class HostLink(Link):
         if self.shape is Shape.UPLOAD:
             # FB's replies are never ACKed: a later copy of the answer before it is no resend.
             self._last_received = b""
+            self._last_reply = b""
             self._limit_at = None  # each line is its own transmission, each with a timer
         else:
             per_packet = self.timeout + self.resend_grace
@@ -894,6 +896,12 @@ class HostLink(Link):
 
     def _h_upload_reply(self, data: bytes) -> None:
         self._good_packet()
+        if data == self._last_reply and any(isinstance(e, Packet) for e in self._backlog):
+            # Two replies in one read: the controller answers each packet once, so the first,
+            # a copy of its previous reply, is a repeat and accepts nothing.
+            self._emit(Ignored("a repeat of the last reply, sent without waiting", self.state))
+            return
+        self._last_reply = data
         flag = _flag_of(data)
         if flag == FLAG_OK:
             self.state = State.UPLOAD_READY
