@@ -60,6 +60,7 @@ SUBCOMMANDS: dict[str, str] = {
     # engineering
     "raw": "robostar.cli.raw:raw",
     "decode": "robostar.cli.decode:decode",
+    "trace": "robostar.cli.trace:trace",
     "doctor": "robostar.cli.doctor:doctor",
     "sim": "robostar.cli.simcmd:sim",
     "sim-input": "robostar.cli.simcmd:sim_input",

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import sys
+from collections.abc import Callable
 from urllib.parse import parse_qsl
 
 import click
@@ -85,6 +87,21 @@ __all__ = ["sim", "sim_input"]
     is_flag=True,
     help="Allow a non-loopback --listen address (the simulator has no security).",
 )
+@click.option(
+    "--dialect",
+    default=None,
+    metavar="NAME",
+    help="Write answers as another controller may: manual (default), capacity, left-aligned, "
+    "padded (docs/simulator.md, Dialects).",
+)
+@click.option(
+    "--replay",
+    "replay_file",
+    type=click.Path(exists=True, dir_okay=False),
+    default=None,
+    metavar="TRACE",
+    help="Answer from a recorded --trace instead of the model (reports where the host differs).",
+)
 @common_options()
 @pass_session
 def sim(
@@ -100,6 +117,8 @@ def sim(
     query: str | None,
     control: str | None,
     allow_remote: bool,
+    dialect: str | None,
+    replay_file: str | None,
 ) -> None:
     """Run the simulator: a virtual N1 for other programs (or another robostar) to talk to.
 
@@ -114,6 +133,8 @@ def sim(
       robostar --port tcp://127.0.0.1:9100 status     # in another terminal
       robostar sim --pty --listen none --fault corrupt:0.01
       robostar sim --control 127.0.0.1:9199     # then: robostar sim-input 0 3 on
+      robostar sim --dialect capacity            # FA announces 2000, as some N1s do
+      robostar sim --replay field.trace          # answer as a recorded controller did
     """
     if click.get_current_context().invoked_subcommand is not None:
         return
@@ -128,16 +149,16 @@ def sim(
         config = SimConfig.from_query(dict(parse_qsl(query, keep_blank_values=True)))
     else:
         config = SimConfig()
+    if dialect is not None:
+        config = dataclasses.replace(config, dialect=dialect)  # an unknown name: UsageError
     address = None if listen.strip().lower() in ("", "none") else listen
+    if replay_file is not None:
+        from robostar.sim.replay import serve_replay
 
-    def ready(endpoints: list[str]) -> None:
-        if session.out.json:
-            click.echo(json.dumps({"ready": True, "endpoints": endpoints}))
-        else:
-            for endpoint in endpoints:
-                click.echo(endpoint)
-            session.out.note("Simulator running; Ctrl-C stops it.")
-        sys.stdout.flush()
+        serve_replay(
+            replay_file, listen=address, allow_remote=allow_remote, on_ready=ready_printer(session)
+        )
+        return
 
     serve(
         config,
@@ -149,9 +170,24 @@ def sim(
         baud=baud,
         turnaround=turnaround,
         allow_remote=allow_remote,
-        on_ready=ready,
+        on_ready=ready_printer(session),
         control=control,
     )
+
+
+def ready_printer(session: Session) -> Callable[[list[str]], None]:
+    """Prints the endpoints once they serve (one JSON line with --json)."""
+
+    def ready(endpoints: list[str]) -> None:
+        if session.out.json:
+            click.echo(json.dumps({"ready": True, "endpoints": endpoints}))
+        else:
+            for endpoint in endpoints:
+                click.echo(endpoint)
+            session.out.note("Simulator running; Ctrl-C stops it.")
+        sys.stdout.flush()
+
+    return ready
 
 
 @click.command("sim-input")

@@ -53,6 +53,7 @@ __all__ = [
     "State",
     "UploadPacketReceived",
     "UploadReady",
+    "announced_wait",
 ]
 
 MAX_NAKS = 3
@@ -856,7 +857,7 @@ class HostLink(Link):
             )
             return
         if shape is Shape.TWO_PHASE and self.state is State.WAIT_ANSWER:
-            wait = _expected_wait(data)
+            wait = announced_wait(data)
             if wait is None:
                 self._rule_broken(
                     LinkRuleError(
@@ -1071,7 +1072,7 @@ def _flag_of(data: bytes) -> int:
         return -1
 
 
-def _expected_wait(data: bytes) -> float | None:
+def announced_wait(data: bytes) -> float | None:
     """Seconds of a two-phase first answer's expected wait: DB/DC carry two digits (spaces or
     one digit tolerated), CE nothing (0). None: not a wait (the answer is malformed)."""
     text = split_answer(data).body.decode("ascii", "replace").strip()

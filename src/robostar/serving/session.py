@@ -121,7 +121,8 @@ class Request:
         if isinstance(self.command, UploadFile):
             self._packets = []
         else:
-            self._packets = self.command.encode_answer(result)
+            packets = self.command.encode_answer(result)
+            self._packets = self._session.backend.dress_answer(self.command, packets)
         self._session._answered(self)
 
     def finish(self) -> None:
@@ -151,6 +152,10 @@ class Backend:
 
     def session_closed(self, session: Session) -> None:
         """``session``'s connection is gone (release what it held)."""
+
+    def dress_answer(self, command: Command[Any], packets: list[bytes]) -> list[bytes]:
+        """The answer packets as they go on the wire (a simulator's dialect rewrites them)."""
+        return packets
 
 
 @dataclass

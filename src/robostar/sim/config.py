@@ -175,6 +175,9 @@ class SimConfig:
     speedup: float = 1.0
     ack_timeout: float = 2.0
     seed: int | None = None
+    dialect: str = "manual"
+    """How the answers are written (robostar.sim.dialects: manual, capacity, left-aligned,
+    padded)."""
 
     def __post_init__(self) -> None:
         if len(self.name) > 15:
@@ -205,6 +208,9 @@ class SimConfig:
             isinstance(self.seed, bool) or not isinstance(self.seed, int)
         ):
             raise UsageError(f"seed: {self.seed!r} is not an integer")
+        from robostar.sim.dialects import dialect_named
+
+        dialect_named(self.dialect)  # an unknown name is refused here, with the names
 
     # -- construction from text ------------------------------------------------------------
     @classmethod
@@ -213,7 +219,8 @@ class SimConfig:
 
         Keys: ``channels`` (1-3), ``robot`` and ``axes`` (one value for every channel, or a
         comma list per channel), ``auto_servo`` (``enb``/``dis``), ``speedup``, ``ack_timeout``,
-        ``io`` (``inputs,outputs``), ``name``, ``version``, ``seed``. Unknown keys are refused.
+        ``io`` (``inputs,outputs``), ``name``, ``version``, ``seed``, ``dialect``. Unknown keys
+        are refused.
         """
         known = {
             "channels",
@@ -226,6 +233,7 @@ class SimConfig:
             "name",
             "version",
             "seed",
+            "dialect",
         }
         unknown = sorted(set(query) - known)
         if unknown:
@@ -271,7 +279,7 @@ class SimConfig:
             if len(parts) != 2:
                 raise UsageError(f"io: {query['io']!r} is not 'inputs,outputs'")
             kwargs["io_boards"] = (_int("io", parts[0]), _int("io", parts[1]))
-        for key in ("name", "version"):
+        for key in ("name", "version", "dialect"):
             if key in query:
                 kwargs[key] = query[key]
         if "seed" in query:

@@ -22,6 +22,7 @@ from robostar.commands.motion import JogContinue, JogStart
 from robostar.errors import FieldError
 from robostar.serving import Backend, Refusal, Request, Session, UploadLimits
 from robostar.sim.config import SimConfig
+from robostar.sim.dialects import dialect_named
 from robostar.sim.handlers import Deferred, Reply, Upload, handle
 from robostar.sim.model import Model, Refused, Timer
 
@@ -66,6 +67,7 @@ class VirtualController(Backend):
     ):
         self.config = config or SimConfig()
         self.model = Model(self.config)
+        self.dialect = dialect_named(self.config.dialect)
         self.limits = limits or UploadLimits()
         self.executions: Counter[str] = Counter()
         self._store = store
@@ -189,6 +191,9 @@ class VirtualController(Backend):
         self._seconds = waiting
 
     # -- the backend -----------------------------------------------------------------------------
+    def dress_answer(self, command: Command[Any], packets: list[bytes]) -> list[bytes]:
+        return self.dialect.dress(command, packets)
+
     def note_error(self, session: Session, text: str) -> None:
         self.model.last_error = text
 

@@ -100,10 +100,8 @@ class DataOps(ModelBase):
         self.changed()
 
     def read_global_float(self, index: int) -> float:
-        value = self.floats.get(index, 0.0)
-        if len(f"{value:.3f}") > 9:
-            raise Refused(f"global float {index} = {value:.3f} does not fit GR's 9-byte answer")
-        return value
+        # Every value GW stored fits GW's 10 bytes; GR answers in 10 when 9 cannot hold it.
+        return self.floats.get(index, 0.0)
 
     def write_global_float(self, index: int, value: float) -> None:
         self.floats[index] = value
