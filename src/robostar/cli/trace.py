@@ -83,7 +83,12 @@ def problems(frames: list[Annotated]) -> list[Problem]:
 
 @click.group()
 def trace() -> None:
-    """Work with wire traces (the JSON-lines files --trace writes)."""
+    """Work with wire traces (the JSON-lines files --trace writes).
+
+    \b
+    Example:
+      robostar trace check field.trace
+    """
 
 
 @trace.command("check")
