@@ -8,7 +8,7 @@ import weakref
 from types import TracebackType
 from typing import Any, Self, TypeVar
 
-from robostar.client.binding import AsyncRunner
+from robostar.client._async_face import AsyncOperations
 from robostar.client.core import ClientBase, LineIO, Settings, Write, check_keepalive
 from robostar.client.driver import command_plan
 from robostar.client.exchange import Outcome, Progress
@@ -26,7 +26,7 @@ __all__ = ["AsyncClient"]
 R = TypeVar("R")
 
 
-class AsyncClient(ClientBase, AsyncRunner):
+class AsyncClient(AsyncOperations, ClientBase):
     """The asyncio twin of :class:`~robostar.client.sync.Client`: the same methods, awaited.
 
     The line opens on ``await client.connect()``, on ``async with``, or on the first call.

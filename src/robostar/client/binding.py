@@ -1,25 +1,28 @@
-"""Binding plans to the two clients, with precise types for both.
+"""How the command surface becomes the two clients' methods.
 
 A method of the command surface is written once, as a plan (a generator, see
-:mod:`robostar.client.plan`), and decorated with :class:`operation`. Read from a
-:class:`SyncRunner` it is a plain method returning the result; read from an
-:class:`AsyncRunner` it is a coroutine method. mypy sees both through the overloads of
-``__get__``, parameters and result type included.
+:mod:`robostar.client.plan`), in :class:`robostar.client.surface.Operations`, and marked with
+:func:`operation`. ``tools/generate_faces.py`` writes a real method for each on both clients
+(``robostar/client/_sync_face.py``, ``_async_face.py``): ``def status(self) -> AllStatus`` and
+``async def status(self) -> AllStatus``, with the plan's parameters, defaults and docstring, so
+that help(), inspect, ``unittest.mock.create_autospec``, IDEs and mypy see the call a user
+makes. Each runs its plan with the client's :meth:`_run`; there is no wrapper per call.
 """
 
 from __future__ import annotations
 
-import functools
 from abc import ABC, abstractmethod
-from collections.abc import Callable, Coroutine
-from typing import Any, Concatenate, Generic, ParamSpec, Self, TypeVar, cast, overload
+from collections.abc import Callable, Iterator
+from typing import Any, TypeVar
 
 from robostar.client.plan import Plan
 
-__all__ = ["AsyncRunner", "SyncRunner", "operation"]
+__all__ = ["AsyncRunner", "SyncRunner", "is_operation", "operation", "operations"]
 
-P = ParamSpec("P")
 R = TypeVar("R")
+F = TypeVar("F", bound=Callable[..., Any])
+
+_MARK = "__robostar_operation__"
 
 
 class SyncRunner(ABC):
@@ -38,43 +41,18 @@ class AsyncRunner(ABC):
         """Run a plan to its end and return its result."""
 
 
-class operation(Generic[P, R]):  # lower case: used as a decorator, like property
-    """Decorator: a plan method becomes a sync method on a SyncRunner, async on an
-    AsyncRunner."""
+def operation(plan: F) -> F:
+    """Mark a plan method of the surface as a client operation (the plan is unchanged)."""
+    setattr(plan, _MARK, True)
+    return plan
 
-    def __init__(self, plan: Callable[Concatenate[Any, P], Plan[R]]) -> None:
-        self.plan = plan
-        functools.update_wrapper(cast(Any, self), plan)
 
-    @overload
-    def __get__(self, obj: None, owner: type[Any] | None = None) -> Self: ...
+def is_operation(value: object) -> bool:
+    return callable(value) and getattr(value, _MARK, False) is True
 
-    @overload
-    def __get__(self, obj: SyncRunner, owner: type[Any] | None = None) -> Callable[P, R]: ...
 
-    @overload
-    def __get__(
-        self, obj: AsyncRunner, owner: type[Any] | None = None
-    ) -> Callable[P, Coroutine[Any, Any, R]]: ...
-
-    def __get__(self, obj: object, owner: type[Any] | None = None) -> Any:
-        if obj is None:
-            return self
-        plan = self.plan
-        if isinstance(obj, AsyncRunner):
-            runner = obj
-
-            @functools.wraps(plan)
-            async def run_async(*args: Any, **kwargs: Any) -> Any:
-                return await runner._run(plan(runner, *args, **kwargs))
-
-            return run_async
-        if isinstance(obj, SyncRunner):
-            sync = obj
-
-            @functools.wraps(plan)
-            def run(*args: Any, **kwargs: Any) -> Any:
-                return sync._run(plan(sync, *args, **kwargs))
-
-            return run
-        raise TypeError(f"{self.plan.__name__} needs a Client or an AsyncClient")
+def operations(cls: type) -> Iterator[tuple[str, Callable[..., Any]]]:
+    """The operations of ``cls`` in the order they are written."""
+    for name, value in vars(cls).items():
+        if is_operation(value):
+            yield name, value

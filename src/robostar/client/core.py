@@ -12,7 +12,7 @@ from typing import Any
 from robostar.client import args
 from robostar.client.driver import Policy
 from robostar.client.exchange import Exchange, Outcome, Progress
-from robostar.client.surface import Operations
+from robostar.client.surface import PlanHelpers
 from robostar.client.trace import TraceTarget, WireTrace
 from robostar.commands.base import Command
 from robostar.commands.files import UploadFile
@@ -80,7 +80,7 @@ class Read:
 LineIO = Write | Read
 
 
-class ClientBase(Operations):
+class ClientBase(PlanHelpers):
     """The state both clients keep; the subclasses add the waiting."""
 
     transport: Transport | AsyncTransport

@@ -73,7 +73,7 @@ from robostar.types import (
     PositionKind,
 )
 
-__all__ = ["DEFAULT_WAIT", "HOMING_WAIT", "Operations"]
+__all__ = ["DEFAULT_WAIT", "HOMING_WAIT", "AllStatus", "Operations", "PlanHelpers"]
 
 R = TypeVar("R")
 DEFAULT_WAIT = 60.0
@@ -92,11 +92,57 @@ def _homed(status: ChannelStatus) -> bool:
     return status.origin and not status.running
 
 
-class Operations:
-    """Every method of the client. Channels are 1-3, as the pendant numbers them."""
+class PlanHelpers:
+    """What the plans use of the client besides its operations: waiting for the robot.
+
+    Both clients inherit it; the plans run with the client as ``self``.
+    """
 
     poll_interval: float = 0.1
     """Seconds between status reads while waiting for the robot."""
+
+    def _wait(
+        self, channel: int, timeout: float, done: Callable[[ChannelStatus], bool], what: str
+    ) -> Plan[ChannelStatus]:
+        number = args.channel(channel)
+        limit = args.positive(timeout, "timeout")
+        end = time.monotonic() + limit
+        while True:
+            status = (yield from call(ReadStatus()))[number - 1]
+            if done(status):
+                return status
+            if status.alarm and not status.running:
+                alarms = yield from call(ReadAlarms())
+                text = "; ".join(str(a) for a in alarms) or "no alarm text"
+                message = f"channel {number}: alarm while waiting for it to {what}: {text}"
+                raise AlarmRaisedError(message, number, status, alarms)
+            left = end - time.monotonic()
+            if left <= 0:
+                message = f"channel {number} did not {what} within {limit:g} s (status: {status})"
+                raise WaitTimeoutError(message, number, status)
+            yield from sleep(min(self.poll_interval, left))
+
+    def _motion(
+        self, command: Home | MoveToPoint | Move | MoveBy, wait: bool, timeout: float
+    ) -> Plan[None]:
+        args.boolean(wait, "wait")
+        args.positive(timeout, "timeout")
+        yield from call(command)
+        if wait and isinstance(command, Home):
+            yield from self._wait(command.channel, timeout, _homed, "finish homing")
+        elif wait:
+            yield from self._wait(command.channel, timeout, _stopped, "stop in position")
+
+
+class Operations(PlanHelpers):
+    """Every method of the client, written once as a plan. Channels are 1-3, as the pendant
+    numbers them.
+
+    These are the single source: ``tools/generate_faces.py`` writes each as a real method of
+    :class:`~robostar.client.Client` (blocking) and :class:`~robostar.client.AsyncClient`
+    (a coroutine), with this signature and docstring (``make generate``; a test fails when the
+    generated files are stale).
+    """
 
     # -- any command -----------------------------------------------------------------------
     @operation
@@ -128,27 +174,6 @@ class Operations:
         return (yield from call(ReadInfo()))
 
     # -- waiting ---------------------------------------------------------------------------
-    def _wait(
-        self, channel: int, timeout: float, done: Callable[[ChannelStatus], bool], what: str
-    ) -> Plan[ChannelStatus]:
-        number = args.channel(channel)
-        limit = args.positive(timeout, "timeout")
-        end = time.monotonic() + limit
-        while True:
-            status = (yield from call(ReadStatus()))[number - 1]
-            if done(status):
-                return status
-            if status.alarm and not status.running:
-                alarms = yield from call(ReadAlarms())
-                text = "; ".join(str(a) for a in alarms) or "no alarm text"
-                message = f"channel {number}: alarm while waiting for it to {what}: {text}"
-                raise AlarmRaisedError(message, number, status, alarms)
-            left = end - time.monotonic()
-            if left <= 0:
-                message = f"channel {number} did not {what} within {limit:g} s (status: {status})"
-                raise WaitTimeoutError(message, number, status)
-            yield from sleep(min(self.poll_interval, left))
-
     @operation
     def wait_stopped(self, channel: int, timeout: float = DEFAULT_WAIT) -> Plan[ChannelStatus]:
         """Poll AA until the channel is in position and not running; return that status.
@@ -162,17 +187,6 @@ class Operations:
     def wait_homed(self, channel: int, timeout: float = HOMING_WAIT) -> Plan[ChannelStatus]:
         """Poll AA until the channel's origin is done and it is not running."""
         return (yield from self._wait(channel, timeout, _homed, "finish homing"))
-
-    def _motion(
-        self, command: Home | MoveToPoint | Move | MoveBy, wait: bool, timeout: float
-    ) -> Plan[None]:
-        args.boolean(wait, "wait")
-        args.positive(timeout, "timeout")
-        yield from call(command)
-        if wait and isinstance(command, Home):
-            yield from self._wait(command.channel, timeout, _homed, "finish homing")
-        elif wait:
-            yield from self._wait(command.channel, timeout, _stopped, "stop in position")
 
     # -- motion (B) ------------------------------------------------------------------------
     @operation

@@ -8,7 +8,7 @@ import weakref
 from types import TracebackType
 from typing import Any, Self, TypeVar
 
-from robostar.client.binding import SyncRunner
+from robostar.client._sync_face import SyncOperations
 from robostar.client.core import ClientBase, LineIO, Settings, Write, check_keepalive
 from robostar.client.driver import command_plan
 from robostar.client.exchange import Outcome, Progress
@@ -26,7 +26,7 @@ __all__ = ["Client"]
 R = TypeVar("R")
 
 
-class Client(ClientBase, SyncRunner):
+class Client(SyncOperations, ClientBase):
     """A connection to one N1 controller, with every protocol command as a method.
 
     ``port`` is a device (``"/dev/ttyUSB0"``, ``"COM3"``), a URL (``"tcp://host:20000"``,
