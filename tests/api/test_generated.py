@@ -136,3 +136,67 @@ def test_mypy_strict_sees_results_and_coroutines(tmp_path: Path) -> None:
     ], done.stdout
     errors = [line for line in done.stdout.splitlines() if ": error:" in line]
     assert errors == [], done.stdout
+
+
+SAMPLES = {
+    "Command[R]": "ReadStatus()",
+    "Point | Sequence[float]": "Point((1.0, 2.0))",
+    "PointFile | Mapping[int, Point]": "{1: Point((1.0, 2.0))}",
+    "Sequence[float]": "[1.0, 2.0]",
+    "Sequence[str]": '["MAIN", "EOP"]',
+    "bool": "True",
+    "float": "1.5",
+    "int": "1",
+    "int | None": "1",
+    "str | FileName": '"RS.JOB"',
+    "str | os.PathLike[str]": '"backup"',
+}
+"""A value of each annotation a required parameter has (a new one fails the test below)."""
+
+
+def _every_call() -> list[str]:
+    import ast
+
+    tree = ast.parse((ROOT / "src" / "robostar" / "client" / "surface.py").read_text())
+    calls = []
+    for node in ast.walk(tree):
+        if not (isinstance(node, ast.ClassDef) and node.name == "Operations"):
+            continue
+        for plan in node.body:
+            if not isinstance(plan, ast.FunctionDef) or plan.name not in NAMES:
+                continue
+            args = plan.args
+            required = args.args[1 : len(args.args) - len(args.defaults)]
+            values = [SAMPLES[ast.unparse(a.annotation)] for a in required if a.annotation]
+            for arg, default in zip(args.kwonlyargs, args.kw_defaults, strict=True):
+                if default is None and arg.annotation is not None:
+                    values.append(f"{arg.arg}={SAMPLES[ast.unparse(arg.annotation)]}")
+            calls.append(f"{plan.name}({', '.join(values)})")
+    return calls
+
+
+def test_a_snippet_calling_every_method_of_both_clients_passes_mypy_strict(
+    tmp_path: Path,
+) -> None:
+    calls = _every_call()
+    assert len(calls) == len(NAMES)
+    lines = [
+        "from robostar import AsyncClient, Client, Point",
+        "from robostar.commands.status import ReadStatus",
+        "",
+        "def sync_user(robot: Client) -> None:",
+        *(f"    robot.{call}" for call in calls),
+        "",
+        "async def async_user(robot: AsyncClient) -> None:",
+        *(f"    await robot.{call}" for call in calls),
+    ]
+    script = tmp_path / "every.py"
+    script.write_text("\n".join(lines) + "\n")
+    done = subprocess.run(
+        [sys.executable, "-m", "mypy", "--strict", "--no-incremental", str(script)],
+        capture_output=True,
+        text=True,
+        check=False,
+        cwd=tmp_path,
+    )
+    assert done.returncode == 0, done.stdout
