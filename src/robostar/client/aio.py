@@ -4,20 +4,21 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import time
 import weakref
 from types import TracebackType
-from typing import Any, Self, TypeVar
+from typing import Any, Self, TypeVar, cast
 
 from robostar.client._async_face import AsyncOperations
-from robostar.client.core import ClientBase, LineIO, Settings, Write, check_keepalive
+from robostar.client.core import DRAIN_READS, ClientBase, Settings, check_keepalive
 from robostar.client.driver import command_plan
-from robostar.client.exchange import Outcome, Progress
+from robostar.client.exchange import Exchange, Outcome, Progress
 from robostar.client.jog import AsyncJog, jog_start
 from robostar.client.locks import AsyncPriorityLock
 from robostar.client.plan import Call, Effect, Plan, run_plan_async
 from robostar.client.trace import TraceTarget
 from robostar.commands.base import Command
-from robostar.errors import RobostarError, UsageError
+from robostar.errors import PortError, RobostarError, UsageError
 from robostar.transport import AsyncTransport, async_transport_for_url
 from robostar.types import JogDirection, MotionType
 
@@ -118,23 +119,69 @@ class AsyncClient(AsyncOperations, ClientBase):
     ) -> R:
         async with self._lock.hold(urgent=urgent):
             await self._ensure_open()
-
-            async def exchange(request: Command[Any]) -> Outcome:
-                steps = self._exchange_plan(request, progress if request is command else None)
-                return await run_plan_async(steps, self._line_io)
-
-            return await run_plan_async(command_plan(command, self._policy), exchange)
+            plan = command_plan(command, self._policy)
+            request = next(plan)  # the rules always ask for the command first
+            while True:
+                outcome = await self._exchange(request, progress if request is command else None)
+                try:
+                    request = plan.send(outcome)
+                except StopIteration as done:
+                    return cast(R, done.value)
 
     # -- the line -------------------------------------------------------------------------
-    async def _line_io(self, step: LineIO) -> bytes | None:
-        if isinstance(step, Write):
-            self._traced_sent(step.data)
-            await self.transport.write(step.data)
-            return None
-        data = await self.transport.read(step.timeout)
-        if data:
+    async def _exchange(self, command: Command[Any], progress: Progress | None) -> Outcome:
+        """One exchange, as one loop (the asyncio twin of Client._exchange)."""
+        transport = self.transport
+        traced = self._trace is not None
+        exchange = Exchange(self._link, command, progress)
+        written = False
+        clock = time.monotonic
+        try:
+            await self._drain()
+            exchange.start(clock())
+            while True:
+                out = exchange.output()
+                if out:
+                    written = True
+                    if traced:
+                        self._traced_sent(out)
+                    await transport.write(out)
+                if exchange.done:
+                    return exchange.outcome()
+                data = await transport.read(max(exchange.deadline() - clock(), 0.0))
+                if data:
+                    if traced:
+                        self._traced_received(data)
+                    exchange.receive(data, clock())
+                else:
+                    exchange.tick(clock())
+        except PortError as exc:
+            raise self._line_lost(command, exc, written) from exc
+        except BaseException:
+            # A cancelled task, Ctrl-C, a callback's error: end the exchange with RST.
+            exchange.abort(clock())
+            out = exchange.output()
+            if out and transport.is_open:
+                try:
+                    self._traced_sent(out)
+                    await transport.write(out)
+                except PortError:
+                    self._link = self._new_link()
+            raise
+
+    async def _drain(self) -> None:
+        """Hand stray input to the idle link before a request (it ACKs a resent answer)."""
+        link = self._link
+        for _ in range(DRAIN_READS):
+            data = await self.transport.read(0.0)
+            if not data:
+                break
             self._traced_received(data)
-        return data
+            link.receive_data(data, time.monotonic())
+        out = link.data_to_send()
+        if out:
+            self._traced_sent(out)
+            await self.transport.write(out)
 
     # -- jogging ---------------------------------------------------------------------------
     def jog(

@@ -4,14 +4,11 @@ client performs its own way."""
 
 from __future__ import annotations
 
-import time
-from collections.abc import Generator
 from dataclasses import dataclass
 from typing import Any
 
 from robostar.client import args
 from robostar.client.driver import Policy
-from robostar.client.exchange import Exchange, Outcome, Progress
 from robostar.client.surface import PlanHelpers
 from robostar.client.trace import TraceTarget, WireTrace
 from robostar.commands.base import Command
@@ -21,7 +18,7 @@ from robostar.protocol.frame import MAX_PACKET
 from robostar.protocol.link import HostLink
 from robostar.transport import AsyncTransport, Transport
 
-__all__ = ["KEEPALIVE_LIMIT", "ClientBase", "LineIO", "Read", "Settings", "Write"]
+__all__ = ["DRAIN_READS", "KEEPALIVE_LIMIT", "ClientBase", "Settings"]
 
 KEEPALIVE_LIMIT = 0.5
 """The manual: a jog stops unless a BF comes within 500 ms of the last one."""
@@ -61,23 +58,6 @@ def check_keepalive(value: object, name: str) -> float:
     if interval >= KEEPALIVE_LIMIT:
         raise UsageError(f"{name}: {interval:g} s is not under the 0.5 s the controller allows")
     return interval
-
-
-@dataclass(frozen=True, slots=True)
-class Write:
-    """Write ``data`` to the line (and the trace)."""
-
-    data: bytes
-
-
-@dataclass(frozen=True, slots=True)
-class Read:
-    """Read what arrives within ``timeout`` seconds; the bytes (maybe ``b""``) are sent back."""
-
-    timeout: float
-
-
-LineIO = Write | Read
 
 
 class ClientBase(PlanHelpers):
@@ -143,54 +123,6 @@ class ClientBase(PlanHelpers):
         if written and command.CHANGES_STATE:
             return OutcomeUnknownError(command.CODE, f"the line was lost: {exc}")
         return exc
-
-    # -- one exchange, as line I/O steps ---------------------------------------------------------
-    def _exchange_plan(
-        self, command: Command[Any], progress: Progress | None
-    ) -> Generator[LineIO, Any, Outcome]:
-        """Run one exchange of ``command`` on the link; the client performs the steps."""
-        exchange = Exchange(self._link, command, progress)
-        written = False
-        try:
-            yield from self._drain_plan()
-            exchange.start(time.monotonic())
-            while True:
-                out = exchange.output()
-                if out:
-                    written = True
-                    yield Write(out)
-                if exchange.done:
-                    return exchange.outcome()
-                data = yield Read(max(exchange.deadline() - time.monotonic(), 0.0))
-                if data:
-                    exchange.receive(data, time.monotonic())
-                else:
-                    exchange.tick(time.monotonic())
-        except PortError as exc:
-            raise self._line_lost(command, exc, written) from exc
-        except GeneratorExit:
-            raise
-        except BaseException:
-            # Ctrl-C, a cancelled task, a callback's error: end the exchange with RST.
-            exchange.abort(time.monotonic())
-            out = exchange.output()
-            if out and self.transport.is_open:
-                try:
-                    yield Write(out)
-                except PortError:
-                    self._link = self._new_link()
-            raise
-
-    def _drain_plan(self) -> Generator[LineIO, Any, None]:
-        """Hand stray input to the idle link before a request (it ACKs a resent answer)."""
-        for _ in range(DRAIN_READS):
-            data = yield Read(0.0)
-            if not data:
-                break
-            self._link.receive_data(data, time.monotonic())
-        out = self._link.data_to_send()
-        if out:
-            yield Write(out)
 
     def _traced_sent(self, data: bytes) -> None:
         if self._trace is not None:

@@ -6,18 +6,18 @@ import contextlib
 import time
 import weakref
 from types import TracebackType
-from typing import Any, Self, TypeVar
+from typing import Any, Self, TypeVar, cast
 
 from robostar.client._sync_face import SyncOperations
-from robostar.client.core import ClientBase, LineIO, Settings, Write, check_keepalive
+from robostar.client.core import DRAIN_READS, ClientBase, Settings, check_keepalive
 from robostar.client.driver import command_plan
-from robostar.client.exchange import Outcome, Progress
+from robostar.client.exchange import Exchange, Outcome, Progress
 from robostar.client.jog import Jog, jog_start
 from robostar.client.locks import PriorityLock
 from robostar.client.plan import Call, Effect, Plan, run_plan
 from robostar.client.trace import TraceTarget
 from robostar.commands.base import Command
-from robostar.errors import RobostarError, UsageError
+from robostar.errors import PortError, RobostarError, UsageError
 from robostar.transport import Transport, transport_for_url
 from robostar.types import JogDirection, MotionType
 
@@ -128,23 +128,70 @@ class Client(SyncOperations, ClientBase):
         """Run one command (its retries and KD follow-up included) while holding the line."""
         with self._lock.hold(urgent=urgent):
             self._ensure_open()
-
-            def exchange(request: Command[Any]) -> Outcome:
-                steps = self._exchange_plan(request, progress if request is command else None)
-                return run_plan(steps, self._line_io)
-
-            return run_plan(command_plan(command, self._policy), exchange)
+            plan = command_plan(command, self._policy)
+            request = next(plan)  # the rules always ask for the command first
+            while True:
+                outcome = self._exchange(request, progress if request is command else None)
+                try:
+                    request = plan.send(outcome)
+                except StopIteration as done:
+                    return cast(R, done.value)
 
     # -- the line -------------------------------------------------------------------------
-    def _line_io(self, step: LineIO) -> bytes | None:
-        if isinstance(step, Write):
-            self._traced_sent(step.data)
-            self.transport.write(step.data)
-            return None
-        data = self.transport.read(step.timeout)
-        if data:
+    def _exchange(self, command: Command[Any], progress: Progress | None) -> Outcome:
+        """One exchange, as one loop: stray input first, the request, then answers until the
+        link says the exchange is over (see core.ClientBase for the rules it shares)."""
+        transport = self.transport
+        traced = self._trace is not None
+        exchange = Exchange(self._link, command, progress)
+        written = False
+        clock = time.monotonic
+        try:
+            self._drain()
+            exchange.start(clock())
+            while True:
+                out = exchange.output()
+                if out:
+                    written = True
+                    if traced:
+                        self._traced_sent(out)
+                    transport.write(out)
+                if exchange.done:
+                    return exchange.outcome()
+                data = transport.read(max(exchange.deadline() - clock(), 0.0))
+                if data:
+                    if traced:
+                        self._traced_received(data)
+                    exchange.receive(data, clock())
+                else:
+                    exchange.tick(clock())
+        except PortError as exc:
+            raise self._line_lost(command, exc, written) from exc
+        except BaseException:
+            # Ctrl-C, a callback's error: end the exchange with RST.
+            exchange.abort(clock())
+            out = exchange.output()
+            if out and transport.is_open:
+                try:
+                    self._traced_sent(out)
+                    transport.write(out)
+                except PortError:
+                    self._link = self._new_link()
+            raise
+
+    def _drain(self) -> None:
+        """Hand stray input to the idle link before a request (it ACKs a resent answer)."""
+        link = self._link
+        for _ in range(DRAIN_READS):
+            data = self.transport.read(0.0)
+            if not data:
+                break
             self._traced_received(data)
-        return data
+            link.receive_data(data, time.monotonic())
+        out = link.data_to_send()
+        if out:
+            self._traced_sent(out)
+            self.transport.write(out)
 
     # -- jogging ---------------------------------------------------------------------------
     def jog(
