@@ -58,6 +58,25 @@ def _result(returns: ast.expr | None, name: str) -> ast.expr:
     raise SystemExit(f"surface.py: {name} must return Plan[...]")
 
 
+def _single_command(node: ast.FunctionDef) -> tuple[ast.expr, bool] | None:
+    """For a plan whose body is ``return (yield from call(X))`` or ``yield from call(X)``
+    (after its docstring): X, and whether the result is returned."""
+    body = node.body[1:] if ast.get_docstring(node) is not None else node.body
+    if len(body) != 1:
+        return None
+    statement = body[0]
+    returns = isinstance(statement, ast.Return)
+    value = statement.value if isinstance(statement, ast.Return | ast.Expr) else None
+    if not isinstance(value, ast.YieldFrom) or not isinstance(value.value, ast.Call):
+        return None
+    call = value.value
+    if not (isinstance(call.func, ast.Name) and call.func.id == "call"):
+        return None
+    if len(call.args) != 1 or call.keywords:
+        return None
+    return call.args[0], returns
+
+
 def _call_arguments(args: ast.arguments) -> str:
     parts = [a.arg for a in (args.posonlyargs + args.args)[1:]]  # after self
     if args.vararg:
@@ -112,15 +131,26 @@ def render(kind: str) -> str:
         used += [node.args, result]
         doc = ast.get_docstring(node, clean=False) or ""
         signature = ast.unparse(node.args)
-        call = f"Operations.{node.name}({_call_arguments(node.args)})"
-        if kind == "sync":
-            head = f"    def {node.name}({signature}) -> {ast.unparse(result)}:"
-            body = f"        return self._run({call})"
+        single = _single_command(node)
+        wait = "await " if kind == "async" else ""
+        if single is not None:
+            # One command and nothing else: call it, without running a plan.
+            expression, returns = single
+            used.append(expression)
+            call = f"{wait}self._call({ast.unparse(expression)})"
+            body = f"        return {call}" if returns else f"        {call}"
         else:
-            head = f"    async def {node.name}({signature}) -> {ast.unparse(result)}:"
-            body = f"        return await self._run({call})"
+            run = f"Operations.{node.name}({_call_arguments(node.args)})"
+            body = f"        return {wait}self._run({run})"
+        define = "async def" if kind == "async" else "def"
+        head = f"    {define} {node.name}({signature}) -> {ast.unparse(result)}:"
         methods.append(f'{head}\n        """{doc}"""\n{body}\n')
-    imports = _imports(tree, _names(used) - {"self"})
+    parameters = {
+        a.arg
+        for node in plans
+        for a in node.args.posonlyargs + node.args.args + node.args.kwonlyargs
+    }
+    imports = _imports(tree, _names(used) - {"self"} - parameters)
     imports.append("from robostar.client.surface import Operations")
     imports.append("from typing import cast")
     runner = "SyncRunner" if kind == "sync" else "AsyncRunner"

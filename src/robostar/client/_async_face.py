@@ -9,11 +9,37 @@ import os
 from collections.abc import Callable, Mapping, Sequence
 from typing import cast
 
+from robostar.client import args
 from robostar.client.backup import Manifest, RestoreDiff
 from robostar.client.binding import AsyncRunner
 from robostar.client.exchange import Progress
+from robostar.client.files import file_name
 from robostar.client.surface import DEFAULT_WAIT, HOMING_WAIT, AllStatus, Operations, R
 from robostar.commands.base import Command
+from robostar.commands.control import (
+    EmergencyStop,
+    ReadReferenceAxis,
+    ReadSpeed,
+    ResetAlarms,
+    ResetJob,
+    Restart,
+    SetReferenceAxis,
+    SetSpeed,
+    StartJob,
+    StopHoming,
+    StopJob,
+)
+from robostar.commands.files import DeleteFile, FileExists, ListFiles, ReadAlarmHistory
+from robostar.commands.io import ReadInputs, ReadIOBoards, ReadOutputs, SetOutput
+from robostar.commands.job import ReadJobName, ReadJobStep, Servo
+from robostar.commands.status import ReadAlarms, ReadInfo, ReadPosition, ReadStatus
+from robostar.commands.system import ReadLastError
+from robostar.commands.variables import (
+    ReadGlobalFloat,
+    ReadGlobalInt,
+    WriteGlobalFloat,
+    WriteGlobalInt,
+)
 from robostar.protocol.fields import FileName
 from robostar.types import (
     Alarm,
@@ -43,19 +69,19 @@ class AsyncOperations(AsyncRunner):
 
     async def status(self) -> AllStatus:
         """AA: the status of channels 1-3 (servo, origin, alarm, ready, in position, running)."""
-        return await self._run(Operations.status(cast(Operations, self)))
+        return await self._call(ReadStatus())
 
     async def alarms(self) -> tuple[Alarm, ...]:
         """AB: the current alarms (up to 10)."""
-        return await self._run(Operations.alarms(cast(Operations, self)))
+        return await self._call(ReadAlarms())
 
     async def position(self, channel: int, kind: str | PositionKind = "xy") -> Position:
         """AC: the channel's position: ``kind`` "xy" (mm), "angle" (degrees/mm) or "pulse"."""
-        return await self._run(Operations.position(cast(Operations, self), channel, kind))
+        return await self._call(ReadPosition(args.channel(channel), args.position_kind(kind)))
 
     async def info(self) -> ControllerInfo:
         """AD: controller name, version, and each channel's model, type and axes."""
-        return await self._run(Operations.info(cast(Operations, self)))
+        return await self._call(ReadInfo())
 
     async def wait_stopped(self, channel: int, timeout: float = DEFAULT_WAIT) -> ChannelStatus:
         """Poll AA until the channel is in position and not running; return that status.
@@ -160,51 +186,51 @@ class AsyncOperations(AsyncRunner):
 
     async def speed(self, channel: int) -> int:
         """CA: the channel's speed, 0-1000 (1000 = 100 %)."""
-        return await self._run(Operations.speed(cast(Operations, self), channel))
+        return await self._call(ReadSpeed(args.channel(channel)))
 
     async def set_speed(self, channel: int, value: int) -> None:
         """CB: set the channel's speed, 0-1000 (1000 = 100 %)."""
-        return await self._run(Operations.set_speed(cast(Operations, self), channel, value))
+        await self._call(SetSpeed(args.channel(channel), value))
 
     async def start_job(self, channel: int) -> None:
         """CC: start the selected job (after homing)."""
-        return await self._run(Operations.start_job(cast(Operations, self), channel))
+        await self._call(StartJob(args.channel(channel)))
 
     async def stop_job(self, channel: int) -> None:
         """CD: stop the running job."""
-        return await self._run(Operations.stop_job(cast(Operations, self), channel))
+        await self._call(StopJob(args.channel(channel)))
 
     async def reset_job(self, channel: int) -> None:
         """CE: set the job back to its first step (servo off only)."""
-        return await self._run(Operations.reset_job(cast(Operations, self), channel))
+        await self._call(ResetJob(args.channel(channel)))
 
     async def emergency_stop(self) -> None:
         """CF: online emergency stop (raises "Host Emergency"; reset_alarms() clears it)."""
-        return await self._run(Operations.emergency_stop(cast(Operations, self)))
+        await self._call(EmergencyStop())
 
     async def reset_alarms(self) -> None:
         """CG: reset the controller's alarms."""
-        return await self._run(Operations.reset_alarms(cast(Operations, self)))
+        await self._call(ResetAlarms())
 
     async def stop_homing(self, channel: int) -> None:
         """CI: stop homing."""
-        return await self._run(Operations.stop_homing(cast(Operations, self), channel))
+        await self._call(StopHoming(args.channel(channel)))
 
     async def restart(self) -> None:
         """CJ: restart the controller (servo off only)."""
-        return await self._run(Operations.restart(cast(Operations, self)))
+        await self._call(Restart())
 
     async def set_reference_axis(self, channel: int, axis: int) -> None:
         """CX: make axis 1 or 4 the reference of interpolated moves (servo off only)."""
-        return await self._run(Operations.set_reference_axis(cast(Operations, self), channel, axis))
+        await self._call(SetReferenceAxis(args.channel(channel), axis))
 
     async def reference_axis(self, channel: int) -> int:
         """CZ: the reference axis of interpolated moves, 1 or 4."""
-        return await self._run(Operations.reference_axis(cast(Operations, self), channel))
+        return await self._call(ReadReferenceAxis(args.channel(channel)))
 
     async def servo(self, channel: int, on: bool) -> int:
         """DB: servo on or off; returns when done, with the wait the controller announced."""
-        return await self._run(Operations.servo(cast(Operations, self), channel, on))
+        return await self._call(Servo(args.channel(channel), args.boolean(on, "on")))
 
     async def select_job(self, channel: int, name: str | FileName) -> int:
         """DC: select the JOB file the channel runs; returns the announced wait (s)."""
@@ -216,11 +242,11 @@ class AsyncOperations(AsyncRunner):
 
     async def job_step(self, channel: int) -> int:
         """ED: the step number the job is at."""
-        return await self._run(Operations.job_step(cast(Operations, self), channel))
+        return await self._call(ReadJobStep(args.channel(channel)))
 
     async def job_name(self, channel: int) -> FileName | None:
         """EF: the selected job's name, or None."""
-        return await self._run(Operations.job_name(cast(Operations, self), channel))
+        return await self._call(ReadJobName(args.channel(channel)))
 
     async def download_job(
         self, channel: int, name: str | FileName, *, progress: Progress | None = None
@@ -280,15 +306,15 @@ class AsyncOperations(AsyncRunner):
 
     async def file_exists(self, channel: int, name: str | FileName) -> bool:
         """FC: does the channel hold this file?"""
-        return await self._run(Operations.file_exists(cast(Operations, self), channel, name))
+        return await self._call(FileExists(args.channel(channel), file_name(name, "name")))
 
     async def list_files(self, channel: int, pattern: str = "*") -> tuple[FileRecord, ...]:
         """FD: one file's record, or every JOB and PNT file with ``"*"``."""
-        return await self._run(Operations.list_files(cast(Operations, self), channel, pattern))
+        return await self._call(ListFiles(args.channel(channel), pattern))
 
     async def delete_file(self, channel: int, name: str | FileName) -> None:
         """FE: delete a JOB file."""
-        return await self._run(Operations.delete_file(cast(Operations, self), channel, name))
+        await self._call(DeleteFile(args.channel(channel), file_name(name, "name")))
 
     async def copy_file(
         self,
@@ -315,7 +341,7 @@ class AsyncOperations(AsyncRunner):
 
     async def alarm_history(self) -> tuple[AlarmRecord, ...]:
         """FH: the stored alarm history."""
-        return await self._run(Operations.alarm_history(cast(Operations, self)))
+        return await self._call(ReadAlarmHistory())
 
     async def backup(
         self,
@@ -361,19 +387,19 @@ class AsyncOperations(AsyncRunner):
 
     async def inputs(self, port: int) -> IOState:
         """GA: the 16 input contacts of I/O port 0-4."""
-        return await self._run(Operations.inputs(cast(Operations, self), port))
+        return await self._call(ReadInputs(port))
 
     async def outputs(self, port: int) -> IOState:
         """GB: the 16 output contacts of I/O port 0-4."""
-        return await self._run(Operations.outputs(cast(Operations, self), port))
+        return await self._call(ReadOutputs(port))
 
     async def set_output(self, port: int, contact: int, on: bool) -> None:
         """GC: switch output ``contact`` (0-15) of ``port`` (0-4) on or off."""
-        return await self._run(Operations.set_output(cast(Operations, self), port, contact, on))
+        await self._call(SetOutput(port, contact, args.boolean(on, "on")))
 
     async def io_boards(self) -> tuple[int, int]:
         """GD: the number of input and output I/O boards."""
-        return await self._run(Operations.io_boards(cast(Operations, self)))
+        return await self._call(ReadIOBoards())
 
     async def read_global_point(
         self, channel: int, index: int, *, coords: str | CoordSystem = "angle", axis: int = 0
@@ -387,11 +413,11 @@ class AsyncOperations(AsyncRunner):
 
     async def read_global_int(self, index: int) -> int:
         """GR: global integer ``index`` (0-499)."""
-        return await self._run(Operations.read_global_int(cast(Operations, self), index))
+        return await self._call(ReadGlobalInt(index))
 
     async def read_global_float(self, index: int) -> float:
         """GR: global float ``index`` (0-499)."""
-        return await self._run(Operations.read_global_float(cast(Operations, self), index))
+        return await self._call(ReadGlobalFloat(index))
 
     async def write_global_point(
         self,
@@ -411,15 +437,15 @@ class AsyncOperations(AsyncRunner):
 
     async def write_global_int(self, index: int, value: int) -> None:
         """GW: write global integer ``index`` (0-499)."""
-        return await self._run(Operations.write_global_int(cast(Operations, self), index, value))
+        await self._call(WriteGlobalInt(index, value))
 
     async def write_global_float(self, index: int, value: float) -> None:
         """GW: write global float ``index`` (0-499)."""
-        return await self._run(Operations.write_global_float(cast(Operations, self), index, value))
+        await self._call(WriteGlobalFloat(index, value))
 
     async def last_error(self) -> str:
         """KD: why the last command failed (0x32)."""
-        return await self._run(Operations.last_error(cast(Operations, self)))
+        return await self._call(ReadLastError())
 
     async def parameters(self, channel: int | None, index: int = -1) -> tuple[str, ...]:
         """KE: a channel's parameter data (``None``: the public parameters); ``index`` -1

@@ -9,11 +9,37 @@ import os
 from collections.abc import Callable, Mapping, Sequence
 from typing import cast
 
+from robostar.client import args
 from robostar.client.backup import Manifest, RestoreDiff
 from robostar.client.binding import SyncRunner
 from robostar.client.exchange import Progress
+from robostar.client.files import file_name
 from robostar.client.surface import DEFAULT_WAIT, HOMING_WAIT, AllStatus, Operations, R
 from robostar.commands.base import Command
+from robostar.commands.control import (
+    EmergencyStop,
+    ReadReferenceAxis,
+    ReadSpeed,
+    ResetAlarms,
+    ResetJob,
+    Restart,
+    SetReferenceAxis,
+    SetSpeed,
+    StartJob,
+    StopHoming,
+    StopJob,
+)
+from robostar.commands.files import DeleteFile, FileExists, ListFiles, ReadAlarmHistory
+from robostar.commands.io import ReadInputs, ReadIOBoards, ReadOutputs, SetOutput
+from robostar.commands.job import ReadJobName, ReadJobStep, Servo
+from robostar.commands.status import ReadAlarms, ReadInfo, ReadPosition, ReadStatus
+from robostar.commands.system import ReadLastError
+from robostar.commands.variables import (
+    ReadGlobalFloat,
+    ReadGlobalInt,
+    WriteGlobalFloat,
+    WriteGlobalInt,
+)
 from robostar.protocol.fields import FileName
 from robostar.types import (
     Alarm,
@@ -43,19 +69,19 @@ class SyncOperations(SyncRunner):
 
     def status(self) -> AllStatus:
         """AA: the status of channels 1-3 (servo, origin, alarm, ready, in position, running)."""
-        return self._run(Operations.status(cast(Operations, self)))
+        return self._call(ReadStatus())
 
     def alarms(self) -> tuple[Alarm, ...]:
         """AB: the current alarms (up to 10)."""
-        return self._run(Operations.alarms(cast(Operations, self)))
+        return self._call(ReadAlarms())
 
     def position(self, channel: int, kind: str | PositionKind = "xy") -> Position:
         """AC: the channel's position: ``kind`` "xy" (mm), "angle" (degrees/mm) or "pulse"."""
-        return self._run(Operations.position(cast(Operations, self), channel, kind))
+        return self._call(ReadPosition(args.channel(channel), args.position_kind(kind)))
 
     def info(self) -> ControllerInfo:
         """AD: controller name, version, and each channel's model, type and axes."""
-        return self._run(Operations.info(cast(Operations, self)))
+        return self._call(ReadInfo())
 
     def wait_stopped(self, channel: int, timeout: float = DEFAULT_WAIT) -> ChannelStatus:
         """Poll AA until the channel is in position and not running; return that status.
@@ -160,51 +186,51 @@ class SyncOperations(SyncRunner):
 
     def speed(self, channel: int) -> int:
         """CA: the channel's speed, 0-1000 (1000 = 100 %)."""
-        return self._run(Operations.speed(cast(Operations, self), channel))
+        return self._call(ReadSpeed(args.channel(channel)))
 
     def set_speed(self, channel: int, value: int) -> None:
         """CB: set the channel's speed, 0-1000 (1000 = 100 %)."""
-        return self._run(Operations.set_speed(cast(Operations, self), channel, value))
+        self._call(SetSpeed(args.channel(channel), value))
 
     def start_job(self, channel: int) -> None:
         """CC: start the selected job (after homing)."""
-        return self._run(Operations.start_job(cast(Operations, self), channel))
+        self._call(StartJob(args.channel(channel)))
 
     def stop_job(self, channel: int) -> None:
         """CD: stop the running job."""
-        return self._run(Operations.stop_job(cast(Operations, self), channel))
+        self._call(StopJob(args.channel(channel)))
 
     def reset_job(self, channel: int) -> None:
         """CE: set the job back to its first step (servo off only)."""
-        return self._run(Operations.reset_job(cast(Operations, self), channel))
+        self._call(ResetJob(args.channel(channel)))
 
     def emergency_stop(self) -> None:
         """CF: online emergency stop (raises "Host Emergency"; reset_alarms() clears it)."""
-        return self._run(Operations.emergency_stop(cast(Operations, self)))
+        self._call(EmergencyStop())
 
     def reset_alarms(self) -> None:
         """CG: reset the controller's alarms."""
-        return self._run(Operations.reset_alarms(cast(Operations, self)))
+        self._call(ResetAlarms())
 
     def stop_homing(self, channel: int) -> None:
         """CI: stop homing."""
-        return self._run(Operations.stop_homing(cast(Operations, self), channel))
+        self._call(StopHoming(args.channel(channel)))
 
     def restart(self) -> None:
         """CJ: restart the controller (servo off only)."""
-        return self._run(Operations.restart(cast(Operations, self)))
+        self._call(Restart())
 
     def set_reference_axis(self, channel: int, axis: int) -> None:
         """CX: make axis 1 or 4 the reference of interpolated moves (servo off only)."""
-        return self._run(Operations.set_reference_axis(cast(Operations, self), channel, axis))
+        self._call(SetReferenceAxis(args.channel(channel), axis))
 
     def reference_axis(self, channel: int) -> int:
         """CZ: the reference axis of interpolated moves, 1 or 4."""
-        return self._run(Operations.reference_axis(cast(Operations, self), channel))
+        return self._call(ReadReferenceAxis(args.channel(channel)))
 
     def servo(self, channel: int, on: bool) -> int:
         """DB: servo on or off; returns when done, with the wait the controller announced."""
-        return self._run(Operations.servo(cast(Operations, self), channel, on))
+        return self._call(Servo(args.channel(channel), args.boolean(on, "on")))
 
     def select_job(self, channel: int, name: str | FileName) -> int:
         """DC: select the JOB file the channel runs; returns the announced wait (s)."""
@@ -216,11 +242,11 @@ class SyncOperations(SyncRunner):
 
     def job_step(self, channel: int) -> int:
         """ED: the step number the job is at."""
-        return self._run(Operations.job_step(cast(Operations, self), channel))
+        return self._call(ReadJobStep(args.channel(channel)))
 
     def job_name(self, channel: int) -> FileName | None:
         """EF: the selected job's name, or None."""
-        return self._run(Operations.job_name(cast(Operations, self), channel))
+        return self._call(ReadJobName(args.channel(channel)))
 
     def download_job(
         self, channel: int, name: str | FileName, *, progress: Progress | None = None
@@ -280,15 +306,15 @@ class SyncOperations(SyncRunner):
 
     def file_exists(self, channel: int, name: str | FileName) -> bool:
         """FC: does the channel hold this file?"""
-        return self._run(Operations.file_exists(cast(Operations, self), channel, name))
+        return self._call(FileExists(args.channel(channel), file_name(name, "name")))
 
     def list_files(self, channel: int, pattern: str = "*") -> tuple[FileRecord, ...]:
         """FD: one file's record, or every JOB and PNT file with ``"*"``."""
-        return self._run(Operations.list_files(cast(Operations, self), channel, pattern))
+        return self._call(ListFiles(args.channel(channel), pattern))
 
     def delete_file(self, channel: int, name: str | FileName) -> None:
         """FE: delete a JOB file."""
-        return self._run(Operations.delete_file(cast(Operations, self), channel, name))
+        self._call(DeleteFile(args.channel(channel), file_name(name, "name")))
 
     def copy_file(
         self,
@@ -311,7 +337,7 @@ class SyncOperations(SyncRunner):
 
     def alarm_history(self) -> tuple[AlarmRecord, ...]:
         """FH: the stored alarm history."""
-        return self._run(Operations.alarm_history(cast(Operations, self)))
+        return self._call(ReadAlarmHistory())
 
     def backup(
         self,
@@ -357,19 +383,19 @@ class SyncOperations(SyncRunner):
 
     def inputs(self, port: int) -> IOState:
         """GA: the 16 input contacts of I/O port 0-4."""
-        return self._run(Operations.inputs(cast(Operations, self), port))
+        return self._call(ReadInputs(port))
 
     def outputs(self, port: int) -> IOState:
         """GB: the 16 output contacts of I/O port 0-4."""
-        return self._run(Operations.outputs(cast(Operations, self), port))
+        return self._call(ReadOutputs(port))
 
     def set_output(self, port: int, contact: int, on: bool) -> None:
         """GC: switch output ``contact`` (0-15) of ``port`` (0-4) on or off."""
-        return self._run(Operations.set_output(cast(Operations, self), port, contact, on))
+        self._call(SetOutput(port, contact, args.boolean(on, "on")))
 
     def io_boards(self) -> tuple[int, int]:
         """GD: the number of input and output I/O boards."""
-        return self._run(Operations.io_boards(cast(Operations, self)))
+        return self._call(ReadIOBoards())
 
     def read_global_point(
         self, channel: int, index: int, *, coords: str | CoordSystem = "angle", axis: int = 0
@@ -383,11 +409,11 @@ class SyncOperations(SyncRunner):
 
     def read_global_int(self, index: int) -> int:
         """GR: global integer ``index`` (0-499)."""
-        return self._run(Operations.read_global_int(cast(Operations, self), index))
+        return self._call(ReadGlobalInt(index))
 
     def read_global_float(self, index: int) -> float:
         """GR: global float ``index`` (0-499)."""
-        return self._run(Operations.read_global_float(cast(Operations, self), index))
+        return self._call(ReadGlobalFloat(index))
 
     def write_global_point(
         self,
@@ -407,15 +433,15 @@ class SyncOperations(SyncRunner):
 
     def write_global_int(self, index: int, value: int) -> None:
         """GW: write global integer ``index`` (0-499)."""
-        return self._run(Operations.write_global_int(cast(Operations, self), index, value))
+        self._call(WriteGlobalInt(index, value))
 
     def write_global_float(self, index: int, value: float) -> None:
         """GW: write global float ``index`` (0-499)."""
-        return self._run(Operations.write_global_float(cast(Operations, self), index, value))
+        self._call(WriteGlobalFloat(index, value))
 
     def last_error(self) -> str:
         """KD: why the last command failed (0x32)."""
-        return self._run(Operations.last_error(cast(Operations, self)))
+        return self._call(ReadLastError())
 
     def parameters(self, channel: int | None, index: int = -1) -> tuple[str, ...]:
         """KE: a channel's parameter data (``None``: the public parameters); ``index`` -1

@@ -6,7 +6,9 @@ A method of the command surface is written once, as a plan (a generator, see
 (``robostar/client/_sync_face.py``, ``_async_face.py``): ``def status(self) -> AllStatus`` and
 ``async def status(self) -> AllStatus``, with the plan's parameters, defaults and docstring, so
 that help(), inspect, ``unittest.mock.create_autospec``, IDEs and mypy see the call a user
-makes. Each runs its plan with the client's :meth:`_run`; there is no wrapper per call.
+makes. Each runs its plan with the client's :meth:`_run`; a plan that is a single command
+(``return (yield from call(X))``) becomes a direct ``self._call(X)``. There is no wrapper per
+call.
 """
 
 from __future__ import annotations
@@ -15,7 +17,9 @@ from abc import ABC, abstractmethod
 from collections.abc import Callable, Iterator
 from typing import Any, TypeVar
 
+from robostar.client.exchange import Progress
 from robostar.client.plan import Plan
+from robostar.commands.base import Command
 
 __all__ = ["AsyncRunner", "SyncRunner", "is_operation", "operation", "operations"]
 
@@ -32,6 +36,12 @@ class SyncRunner(ABC):
     def _run(self, plan: Plan[R]) -> R:
         """Run a plan to its end and return its result."""
 
+    @abstractmethod
+    def _call(
+        self, command: Command[R], progress: Progress | None = None, *, urgent: bool = False
+    ) -> R:
+        """Run one command (a plan that is one ``call``, without the plan)."""
+
 
 class AsyncRunner(ABC):
     """A client that runs plans on an asyncio event loop."""
@@ -39,6 +49,12 @@ class AsyncRunner(ABC):
     @abstractmethod
     async def _run(self, plan: Plan[R]) -> R:
         """Run a plan to its end and return its result."""
+
+    @abstractmethod
+    async def _call(
+        self, command: Command[R], progress: Progress | None = None, *, urgent: bool = False
+    ) -> R:
+        """Run one command (a plan that is one ``call``, without the plan)."""
 
 
 def operation(plan: F) -> F:
