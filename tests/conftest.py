@@ -11,6 +11,10 @@ import os
 
 from hypothesis import HealthCheck, settings
 
+# tests/plugin runs an integrator's test file through pytest (pytester); it must be declared
+# here, at the top, since pytest takes plugins only from the root conftest.
+pytest_plugins = ["pytester"]
+
 settings.register_profile("dev", deadline=None)
 settings.register_profile(
     "ci",

@@ -1,0 +1,414 @@
+"""The MQTT face: the lines' live models in the plant's broker, and optional write-back.
+
+``robostar serve --mqtt mqtt://HOST:PORT`` (or ``[mqtt]`` in the config) publishes every line's
+model under ``<prefix>/<line>/...`` (docs/mqtt.md): retained JSON values with their time and
+quality, reported by exception (a deadband on positions, a rate cap per line), a retained
+``online`` per line with a last will, and ``<prefix>/_server/online``. While the broker is away,
+changes wait in a bounded SQLite buffer and are replayed in order, marked historical. Commands
+are off unless the configuration turns them on, per name.
+
+Each line has its own MQTT connection (its own last will) and a pump task that reads the
+line's model subscription, so a slow or silent broker never holds up a line's worker.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import json
+import logging
+import os
+import ssl
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+from urllib.parse import urlsplit
+
+import aiomqtt
+from paho.mqtt.packettypes import PacketTypes
+from paho.mqtt.properties import Properties
+
+from robostar.errors import RobostarError, UsageError
+from robostar.serve.faces.mqtt.buffer import StoreAndForward
+from robostar.serve.faces.mqtt.commands import COMMANDS, ESTOP, parse_command
+from robostar.serve.faces.mqtt.payload import encode
+from robostar.serve.faces.mqtt.reporter import Reporter
+from robostar.serve.faces.mqtt.topics import Topics, check_prefix
+from robostar.serve.jsonable import jsonable
+from robostar.serve.lease import Who
+from robostar.serve.model import Sample
+
+if TYPE_CHECKING:
+    from robostar.serve.line import Line
+    from robostar.serve.server import LineServer
+
+__all__ = ["MqttFace", "MqttSettings", "create"]
+
+log = logging.getLogger("robostar.serve.mqtt")
+
+_OPTIONS = frozenset(
+    (
+        "url",
+        "prefix",
+        "client_id",
+        "username",
+        "password",
+        "password_env",
+        "ca",
+        "cert",
+        "key",
+        "qos",
+        "deadband",
+        "rate",
+        "buffer",
+        "buffer_rows",
+        "commands",
+        "publish_timeout",
+        "allow_remote",
+        "token",
+    )
+)
+_COMMAND_OPTIONS = frozenset(("enabled", "allow", "estop"))
+
+
+@dataclass(frozen=True)
+class MqttSettings:
+    host: str
+    port: int
+    tls: bool = False
+    prefix: str = "robostar"
+    client_id: str = "robostar"
+    username: str | None = None
+    password: str | None = field(default=None, repr=False)
+    ca: str | None = None
+    cert: str | None = None
+    key: str | None = None
+    qos: int = 1
+    deadband: float = 0.01
+    rate: float = 50.0
+    buffer: str = ":memory:"
+    buffer_rows: int = 100_000
+    commands: frozenset[str] = frozenset()
+    publish_timeout: float = 5.0
+
+
+def _number(options: Mapping[str, Any], key: str, default: float, low: float) -> float:
+    value = options.get(key, default)
+    if isinstance(value, bool) or not isinstance(value, int | float) or not value >= low:
+        raise UsageError(f"mqtt.{key}: {value!r} is not a number of at least {low:g}")
+    return float(value)
+
+
+def settings_from(options: Mapping[str, Any]) -> MqttSettings:
+    """The face's settings, every key checked (UsageError naming it)."""
+    unknown = sorted(set(options) - _OPTIONS)
+    if unknown:
+        raise UsageError(
+            f"mqtt.{unknown[0]}: unknown option (options: {', '.join(sorted(_OPTIONS))})"
+        )
+    url = str(options.get("url", ""))
+    parts = urlsplit(url)
+    if parts.scheme not in ("mqtt", "mqtts") or not parts.hostname:
+        raise UsageError(f"mqtt.url: {url!r} is not mqtt://HOST[:PORT] or mqtts://HOST[:PORT]")
+    tls = parts.scheme == "mqtts"
+    try:
+        port = parts.port or (8883 if tls else 1883)
+    except ValueError:
+        raise UsageError(f"mqtt.url: {url!r} has a bad port") from None
+    password = options.get("password")
+    env = options.get("password_env")
+    if env is not None:
+        password = os.environ.get(str(env))
+        if password is None:
+            raise UsageError(f"mqtt.password_env: the environment has no {env}")
+    commands_option = options.get("commands", {})
+    if not isinstance(commands_option, Mapping):
+        raise UsageError("mqtt.commands: expected a table (enabled, allow, estop)")
+    bad = sorted(set(commands_option) - _COMMAND_OPTIONS)
+    if bad:
+        raise UsageError(f"mqtt.commands.{bad[0]}: unknown option (enabled, allow, estop)")
+    commands: set[str] = set()
+    if commands_option.get("enabled", False) is True:
+        allow = commands_option.get("allow", [])
+        if isinstance(allow, str) or not all(name in COMMANDS for name in allow):
+            raise UsageError(
+                f"mqtt.commands.allow: {allow!r}: names among {', '.join(sorted(COMMANDS))}"
+            )
+        commands.update(allow)
+        if commands_option.get("estop", False) is True:
+            commands.add(ESTOP)
+    qos = options.get("qos", 1)
+    if qos not in (0, 1, 2):
+        raise UsageError(f"mqtt.qos: {qos!r} is not 0, 1 or 2")
+    return MqttSettings(
+        host=parts.hostname,
+        port=port,
+        tls=tls or bool(options.get("ca")),
+        prefix=check_prefix(str(options.get("prefix", "robostar"))),
+        client_id=str(options.get("client_id", "robostar")),
+        username=options.get("username") or parts.username,
+        password=password or parts.password,
+        ca=options.get("ca"),
+        cert=options.get("cert"),
+        key=options.get("key"),
+        qos=int(qos),
+        deadband=_number(options, "deadband", 0.01, 0.0),
+        rate=_number(options, "rate", 50.0, 0.1),
+        buffer=str(options.get("buffer", ":memory:")),
+        buffer_rows=int(_number(options, "buffer_rows", 100_000, 1)),
+        commands=frozenset(commands),
+        publish_timeout=_number(options, "publish_timeout", 5.0, 0.1),
+    )
+
+
+class _LineLink:
+    """One line's connection, buffer and pump."""
+
+    def __init__(self, face: MqttFace, line: Line) -> None:
+        self.face = face
+        self.line = line
+        settings = face.settings
+        path = settings.buffer
+        if path != ":memory:":
+            os.makedirs(path, exist_ok=True)
+            path = os.path.join(path, f"{line.name}.sqlite")
+        self.buffer = StoreAndForward(path, max_rows=settings.buffer_rows)
+        self.reporter = Reporter(deadband=settings.deadband, max_rate=settings.rate)
+        self.client: aiomqtt.Client | None = None
+        self.replaying = False
+        self.published = 0
+        self.wake = asyncio.Event()
+
+    # -- the pump: model changes -> reporter -> broker or buffer -----------------------------
+    async def pump(self) -> None:
+        with self.line.model.subscribe(maxsize=10_000) as changes:
+            for key, sample in self.line.model.snapshot().items():
+                self.reporter.offer(key, sample)
+            feeder = asyncio.create_task(self._feed(changes))
+            try:
+                while True:
+                    now = time.monotonic()
+                    for key, sample in self.reporter.due(now):
+                        await self.send(key, sample)
+                    due = self.reporter.next_due(now)
+                    self.wake.clear()
+                    timeout = None if due is None else max(0.0, due - time.monotonic())
+                    with contextlib.suppress(TimeoutError):
+                        await asyncio.wait_for(self.wake.wait(), timeout)
+            finally:
+                feeder.cancel()
+
+    async def _feed(self, changes: Any) -> None:
+        async for change in changes:
+            self.reporter.offer(change.key, change.sample)
+            self.wake.set()
+
+    async def send(self, key: str, sample: Sample) -> None:
+        topic = self.face.topics.value(self.line.name, key)
+        client = self.client
+        if client is None or self.replaying or len(self.buffer):
+            self.buffer.put(topic, encode(sample, historical=True), False)
+            return
+        try:
+            await client.publish(
+                topic,
+                encode(sample),
+                qos=self.face.settings.qos,
+                retain=True,
+                timeout=self.face.settings.publish_timeout,
+            )
+            self.published += 1
+        except (aiomqtt.MqttError, TimeoutError) as exc:
+            log.warning("mqtt %s: publish failed (%s); buffering", self.line.name, exc)
+            self.client = None
+            self.buffer.put(topic, encode(sample, historical=True), False)
+
+    # -- the connection ------------------------------------------------------------------------
+    async def connect_loop(self) -> None:
+        settings = self.face.settings
+        topics = self.face.topics
+        online = topics.online(self.line.name)
+        backoff = 0.5
+        while True:
+            try:
+                async with self.face.client(
+                    f"{settings.client_id}-{self.line.name}", online
+                ) as client:
+                    backoff = 0.5
+                    await client.publish(online, b"true", qos=1, retain=True)
+                    if settings.commands:
+                        await client.subscribe(topics.commands(self.line.name), qos=1)
+                    await self._replay(client)
+                    self.client = client
+                    self.reporter.forget()  # the current state goes out again, retained
+                    for key, sample in self.line.model.snapshot().items():
+                        self.reporter.offer(key, sample)
+                    self.wake.set()
+                    log.info(
+                        "mqtt %s: connected to %s:%d", self.line.name, settings.host, settings.port
+                    )
+                    async for message in client.messages:
+                        task = asyncio.create_task(self._command(client, message))
+                        self.face.tasks.add(task)
+                        task.add_done_callback(self.face.tasks.discard)
+            except aiomqtt.MqttError as exc:
+                log.warning("mqtt %s: %s; retrying in %.1f s", self.line.name, exc, backoff)
+            finally:
+                self.client = None
+            await asyncio.sleep(backoff)
+            backoff = min(backoff * 2, 30.0)
+
+    async def _replay(self, client: aiomqtt.Client) -> None:
+        """Send what waited, in order, before anything live."""
+        self.replaying = True
+        try:
+            while True:
+                batch = self.buffer.peek(500)
+                if not batch:
+                    break
+                for row in batch:
+                    await client.publish(
+                        row.topic,
+                        row.payload,
+                        qos=self.face.settings.qos,
+                        retain=row.retain,
+                        timeout=self.face.settings.publish_timeout,
+                    )
+                self.buffer.remove(batch[-1].id)
+            if self.buffer.dropped:
+                status = {"line": self.line.name, "dropped": self.buffer.dropped}
+                await client.publish(
+                    self.face.topics.server("buffer"), json.dumps(status).encode(), qos=1
+                )
+        finally:
+            self.replaying = False
+
+    # -- commands ---------------------------------------------------------------------------
+    async def _command(self, client: aiomqtt.Client, message: aiomqtt.Message) -> None:
+        topics = self.face.topics
+        name = topics.command_name(str(message.topic), self.line.name)
+        if name is None:
+            return
+        props = message.properties
+        reply_to = getattr(props, "ResponseTopic", None) or topics.result(self.line.name, name)
+        correlation = getattr(props, "CorrelationData", None)
+        request_id: Any = None
+        try:
+            if name not in self.face.settings.commands:
+                raise UsageError(f"command {name!r} is not enabled on this server")
+            payload = (
+                message.payload
+                if isinstance(message.payload, bytes)
+                else str(message.payload).encode()
+            )
+            command, request_id = parse_command(name, payload)
+            who = Who(self.face.settings.client_id, "mqtt")
+            result = await self.line.execute(command, who=who, implicit_lease=True)
+            body: dict[str, Any] = {"ok": True, "result": jsonable(result)}
+        except RobostarError as exc:
+            body = {"ok": False, "error": str(exc), "kind": type(exc).__name__}
+        if request_id is not None:
+            body["id"] = request_id
+        properties = None
+        if correlation is not None:
+            properties = Properties(PacketTypes.PUBLISH)  # type: ignore[no-untyped-call]
+            properties.CorrelationData = correlation
+        with contextlib.suppress(aiomqtt.MqttError, TimeoutError):
+            await client.publish(
+                reply_to, json.dumps(body).encode(), qos=1, properties=properties, timeout=5.0
+            )
+
+
+class MqttFace:
+    """Publishes every line of ``server`` to one broker (see the module's docstring)."""
+
+    def __init__(self, server: LineServer, settings: MqttSettings) -> None:
+        self.server = server
+        self.settings = settings
+        self.topics = Topics(settings.prefix)
+        self.links: dict[str, _LineLink] = {}
+        self.tasks: set[asyncio.Task[Any]] = set()
+        self.presence: aiomqtt.Client | None = None
+
+    def client(self, identifier: str, will_topic: str) -> aiomqtt.Client:
+        s = self.settings
+        context = None
+        if s.tls:
+            context = ssl.create_default_context(cafile=s.ca)
+            if s.cert:
+                context.load_cert_chain(s.cert, s.key)
+        return aiomqtt.Client(
+            s.host,
+            s.port,
+            username=s.username,
+            password=s.password,
+            identifier=identifier,
+            protocol=aiomqtt.ProtocolVersion.V5,
+            will=aiomqtt.Will(will_topic, b"false", qos=1, retain=True),
+            tls_context=context,
+            keepalive=10,
+            timeout=s.publish_timeout,
+        )
+
+    async def start(self) -> None:
+        for name, line in self.server.lines.items():
+            link = self.links[name] = _LineLink(self, line)
+            for job in (link.pump(), link.connect_loop()):
+                task = asyncio.create_task(job)
+                self.tasks.add(task)
+        self.tasks.add(asyncio.create_task(self._server_presence()))
+        log.info(
+            "mqtt face: %d line(s) to %s:%d",
+            len(self.links),
+            self.settings.host,
+            self.settings.port,
+        )
+
+    async def _server_presence(self) -> None:
+        online = self.topics.server("online")
+        backoff = 0.5
+        while True:
+            try:
+                async with self.client(f"{self.settings.client_id}-server", online) as client:
+                    backoff = 0.5
+                    await client.publish(online, b"true", qos=1, retain=True)
+                    self.presence = client
+                    async for _ in client.messages:
+                        pass
+            except aiomqtt.MqttError:
+                pass
+            await asyncio.sleep(backoff)
+            backoff = min(backoff * 2, 30.0)
+
+    async def stop(self) -> None:
+        """Say offline (retained) where connected, then disconnect: a clean stop is not a
+        death, but the lines are not served any more either."""
+        for link in self.links.values():
+            client = link.client
+            if client is not None:
+                with contextlib.suppress(aiomqtt.MqttError, TimeoutError):
+                    await client.publish(
+                        self.topics.online(link.line.name),
+                        b"false",
+                        qos=1,
+                        retain=True,
+                        timeout=2.0,
+                    )
+        presence = self.presence
+        if presence is not None:
+            with contextlib.suppress(aiomqtt.MqttError, TimeoutError):
+                await presence.publish(
+                    self.topics.server("online"), b"false", qos=1, retain=True, timeout=2.0
+                )
+        for task in list(self.tasks):
+            task.cancel()
+        await asyncio.gather(*self.tasks, return_exceptions=True)
+        self.tasks.clear()
+        for link in self.links.values():
+            link.buffer.close()
+
+
+def create(server: LineServer, options: Mapping[str, Any]) -> MqttFace:
+    """``options``: the ``[mqtt]`` section (docs/mqtt.md); ``url`` is required."""
+    return MqttFace(server, settings_from(options))

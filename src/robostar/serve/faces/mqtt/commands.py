@@ -1,0 +1,76 @@
+"""Write-back over MQTT (off by default): a command message becomes a robostar command.
+
+A message on ``<prefix>/<line>/cmd/<name>`` holds JSON parameters. Only the names in the
+configuration's allowlist are taken; the parameters are checked (types, then the command's own
+range checks, by encoding it) before anything reaches the line. The result goes to the MQTT 5
+response topic with the request's correlation data, or to ``.../cmd/<name>/result`` with the
+payload's ``"id"``.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable, Mapping
+from typing import Any
+
+from robostar.commands.base import Command
+from robostar.commands.control import EmergencyStop, SetSpeed, StartJob, StopJob
+from robostar.commands.io import SetOutput
+from robostar.commands.job import Servo
+from robostar.commands.variables import WriteGlobalFloat, WriteGlobalInt
+from robostar.errors import UsageError
+
+__all__ = ["COMMANDS", "ESTOP", "parse_command"]
+
+ESTOP = "estop"
+
+
+def _int(params: Mapping[str, Any], name: str) -> int:
+    value = params.get(name)
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise UsageError(f"{name}: expected an integer, not {value!r}")
+    return value
+
+
+def _float(params: Mapping[str, Any], name: str) -> float:
+    value = params.get(name)
+    if isinstance(value, bool) or not isinstance(value, int | float) or value != value:
+        raise UsageError(f"{name}: expected a number, not {value!r}")
+    return float(value)
+
+
+def _bool(params: Mapping[str, Any], name: str) -> bool:
+    value = params.get(name)
+    if not isinstance(value, bool):
+        raise UsageError(f"{name}: expected true or false, not {value!r}")
+    return value
+
+
+COMMANDS: dict[str, Callable[[Mapping[str, Any]], Command[Any]]] = {
+    "servo": lambda p: Servo(_int(p, "channel"), _bool(p, "on")),
+    "start_job": lambda p: StartJob(_int(p, "channel")),
+    "stop_job": lambda p: StopJob(_int(p, "channel")),
+    "speed": lambda p: SetSpeed(_int(p, "channel"), _int(p, "value")),
+    "output": lambda p: SetOutput(_int(p, "port"), _int(p, "contact"), _bool(p, "on")),
+    "global_int": lambda p: WriteGlobalInt(_int(p, "index"), _int(p, "value")),
+    "global_float": lambda p: WriteGlobalFloat(_int(p, "index"), _float(p, "value")),
+    ESTOP: lambda p: EmergencyStop(),
+}
+"""Every command the face can take, by topic name (the allowlist picks among them)."""
+
+
+def parse_command(name: str, payload: bytes) -> tuple[Command[Any], Any]:
+    """The command and the request's ``"id"``; UsageError (or FieldError) naming what is wrong,
+    before anything is sent."""
+    make = COMMANDS.get(name)
+    if make is None:
+        raise UsageError(f"unknown command {name!r} (commands: {', '.join(COMMANDS)})")
+    try:
+        params = json.loads(payload or b"{}")
+    except (ValueError, UnicodeDecodeError) as exc:
+        raise UsageError(f"the payload is not JSON: {exc}") from None
+    if not isinstance(params, dict):
+        raise UsageError("the payload must be a JSON object")
+    command = make(params)
+    command.encode()  # every field's range, as the wire would refuse it
+    return command, params.get("id")

@@ -1,0 +1,53 @@
+"""The MQTT topic tree: ``<prefix>/<line>/<model key>`` and the face's own topics.
+
+The model's keys already form a tree (``ch1/status``, ``ch1/position``, ``io/in/0``, ``alarms``,
+``info``, ``online``), so a value's topic is its key under the line. Commands come in under
+``<prefix>/<line>/cmd/<name>`` and their results go to the request's response topic, or to
+``<prefix>/<line>/cmd/<name>/result``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from robostar.errors import UsageError
+
+__all__ = ["SERVER", "Topics", "check_prefix"]
+
+SERVER = "_server"
+"""The tree of the server itself (its online state, the buffer's figures)."""
+
+
+def check_prefix(prefix: str) -> str:
+    text = prefix.strip().strip("/")
+    if not text or any(c in text for c in "+#\x00"):
+        raise UsageError(f"mqtt.prefix: {prefix!r} is not a topic prefix (no +, # or NUL)")
+    return text
+
+
+@dataclass(frozen=True)
+class Topics:
+    prefix: str
+
+    def value(self, line: str, key: str) -> str:
+        return f"{self.prefix}/{line}/{key}"
+
+    def online(self, line: str) -> str:
+        return f"{self.prefix}/{line}/online"
+
+    def server(self, key: str) -> str:
+        return f"{self.prefix}/{SERVER}/{key}"
+
+    def commands(self, line: str) -> str:
+        """The subscription filter for a line's commands."""
+        return f"{self.prefix}/{line}/cmd/+"
+
+    def command_name(self, topic: str, line: str) -> str | None:
+        head = f"{self.prefix}/{line}/cmd/"
+        if not topic.startswith(head):
+            return None
+        name = topic[len(head) :]
+        return name if name and "/" not in name else None
+
+    def result(self, line: str, name: str) -> str:
+        return f"{self.prefix}/{line}/cmd/{name}/result"
