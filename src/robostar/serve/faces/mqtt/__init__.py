@@ -31,7 +31,7 @@ from paho.mqtt.properties import Properties
 
 from robostar.errors import RobostarError, UsageError
 from robostar.serve.faces.mqtt.buffer import StoreAndForward
-from robostar.serve.faces.mqtt.commands import COMMANDS, ESTOP, parse_command
+from robostar.serve.faces.mqtt.commands import COMMANDS, ESTOP, build_command, read_params
 from robostar.serve.faces.mqtt.payload import encode
 from robostar.serve.faces.mqtt.reporter import Reporter
 from robostar.serve.faces.mqtt.topics import Topics, check_prefix
@@ -65,6 +65,7 @@ _OPTIONS = frozenset(
         "buffer_rows",
         "commands",
         "publish_timeout",
+        "reconnect_max",
         "allow_remote",
         "token",
     )
@@ -91,6 +92,8 @@ class MqttSettings:
     buffer_rows: int = 100_000
     commands: frozenset[str] = frozenset()
     publish_timeout: float = 5.0
+    reconnect_max: float = 30.0
+    """The longest wait between reconnection attempts (the wait doubles from 0.5 s)."""
 
 
 def _number(options: Mapping[str, Any], key: str, default: float, low: float) -> float:
@@ -159,6 +162,7 @@ def settings_from(options: Mapping[str, Any]) -> MqttSettings:
         buffer_rows=int(_number(options, "buffer_rows", 100_000, 1)),
         commands=frozenset(commands),
         publish_timeout=_number(options, "publish_timeout", 5.0, 0.1),
+        reconnect_max=_number(options, "reconnect_max", 30.0, 0.1),
     )
 
 
@@ -179,6 +183,8 @@ class _LineLink:
         self.replaying = False
         self.published = 0
         self.wake = asyncio.Event()
+        self.kicked = asyncio.Event()
+        """Set when a publish failed: the connection is dropped and made again (then replayed)."""
 
     # -- the pump: model changes -> reporter -> broker or buffer -----------------------------
     async def pump(self) -> None:
@@ -206,14 +212,18 @@ class _LineLink:
 
     async def send(self, key: str, sample: Sample) -> None:
         topic = self.face.topics.value(self.line.name, key)
+        # ``online`` is the birth/death topic: a bare true/false, as the last will says it.
+        online = key == "online"
+        payload = (b"true" if sample.value else b"false") if online else encode(sample)
         client = self.client
         if client is None or self.replaying or len(self.buffer):
-            self.buffer.put(topic, encode(sample, historical=True), False)
+            if not online:  # a line's state while the broker was away is history
+                self.buffer.put(topic, encode(sample, historical=True), False)
             return
         try:
             await client.publish(
                 topic,
-                encode(sample),
+                payload,
                 qos=self.face.settings.qos,
                 retain=True,
                 timeout=self.face.settings.publish_timeout,
@@ -222,7 +232,9 @@ class _LineLink:
         except (aiomqtt.MqttError, TimeoutError) as exc:
             log.warning("mqtt %s: publish failed (%s); buffering", self.line.name, exc)
             self.client = None
-            self.buffer.put(topic, encode(sample, historical=True), False)
+            self.kicked.set()
+            if not online:
+                self.buffer.put(topic, encode(sample, historical=True), False)
 
     # -- the connection ------------------------------------------------------------------------
     async def connect_loop(self) -> None:
@@ -236,7 +248,8 @@ class _LineLink:
                     f"{settings.client_id}-{self.line.name}", online
                 ) as client:
                     backoff = 0.5
-                    await client.publish(online, b"true", qos=1, retain=True)
+                    up = b"true" if self.line.up else b"false"
+                    await client.publish(online, up, qos=1, retain=True)
                     if settings.commands:
                         await client.subscribe(topics.commands(self.line.name), qos=1)
                     await self._replay(client)
@@ -248,16 +261,32 @@ class _LineLink:
                     log.info(
                         "mqtt %s: connected to %s:%d", self.line.name, settings.host, settings.port
                     )
-                    async for message in client.messages:
-                        task = asyncio.create_task(self._command(client, message))
-                        self.face.tasks.add(task)
-                        task.add_done_callback(self.face.tasks.discard)
+                    reader = asyncio.create_task(self._read(client))
+                    kicked = asyncio.create_task(self.kicked.wait())
+                    try:
+                        done, _ = await asyncio.wait(
+                            {reader, kicked}, return_when=asyncio.FIRST_COMPLETED
+                        )
+                    finally:
+                        reader.cancel()
+                        kicked.cancel()
+                    self.kicked.clear()
+                    if reader in done:
+                        reader.result()  # the connection's error
             except aiomqtt.MqttError as exc:
                 log.warning("mqtt %s: %s; retrying in %.1f s", self.line.name, exc, backoff)
             finally:
                 self.client = None
             await asyncio.sleep(backoff)
-            backoff = min(backoff * 2, 30.0)
+            backoff = min(backoff * 2, self.face.settings.reconnect_max)
+
+    async def _read(self, client: aiomqtt.Client) -> None:
+        """Take command messages until the connection fails (MqttError)."""
+        async for message in client.messages:
+            task = asyncio.create_task(self._command(client, message))
+            self.face.tasks.add(task)
+            task.add_done_callback(self.face.tasks.discard)
+        raise aiomqtt.MqttError("the broker closed the connection")
 
     async def _replay(self, client: aiomqtt.Client) -> None:
         """Send what waited, in order, before anything live."""
@@ -295,14 +324,12 @@ class _LineLink:
         correlation = getattr(props, "CorrelationData", None)
         request_id: Any = None
         try:
+            raw = message.payload
+            params = read_params(raw if isinstance(raw, bytes) else str(raw).encode())
+            request_id = params.get("id")
             if name not in self.face.settings.commands:
                 raise UsageError(f"command {name!r} is not enabled on this server")
-            payload = (
-                message.payload
-                if isinstance(message.payload, bytes)
-                else str(message.payload).encode()
-            )
-            command, request_id = parse_command(name, payload)
+            command = build_command(name, params)
             who = Who(self.face.settings.client_id, "mqtt")
             result = await self.line.execute(command, who=who, implicit_lease=True)
             body: dict[str, Any] = {"ok": True, "result": jsonable(result)}
@@ -379,7 +406,7 @@ class MqttFace:
             except aiomqtt.MqttError:
                 pass
             await asyncio.sleep(backoff)
-            backoff = min(backoff * 2, 30.0)
+            backoff = min(backoff * 2, self.settings.reconnect_max)
 
     async def stop(self) -> None:
         """Say offline (retained) where connected, then disconnect: a clean stop is not a

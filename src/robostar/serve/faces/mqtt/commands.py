@@ -20,7 +20,7 @@ from robostar.commands.job import Servo
 from robostar.commands.variables import WriteGlobalFloat, WriteGlobalInt
 from robostar.errors import UsageError
 
-__all__ = ["COMMANDS", "ESTOP", "parse_command"]
+__all__ = ["COMMANDS", "ESTOP", "build_command", "read_params"]
 
 ESTOP = "estop"
 
@@ -59,18 +59,22 @@ COMMANDS: dict[str, Callable[[Mapping[str, Any]], Command[Any]]] = {
 """Every command the face can take, by topic name (the allowlist picks among them)."""
 
 
-def parse_command(name: str, payload: bytes) -> tuple[Command[Any], Any]:
-    """The command and the request's ``"id"``; UsageError (or FieldError) naming what is wrong,
-    before anything is sent."""
-    make = COMMANDS.get(name)
-    if make is None:
-        raise UsageError(f"unknown command {name!r} (commands: {', '.join(COMMANDS)})")
+def read_params(payload: bytes) -> dict[str, Any]:
+    """The message's JSON object (UsageError when it is not one)."""
     try:
         params = json.loads(payload or b"{}")
     except (ValueError, UnicodeDecodeError) as exc:
         raise UsageError(f"the payload is not JSON: {exc}") from None
     if not isinstance(params, dict):
         raise UsageError("the payload must be a JSON object")
+    return params
+
+
+def build_command(name: str, params: Mapping[str, Any]) -> Command[Any]:
+    """The command; UsageError (or FieldError) naming what is wrong, before anything is sent."""
+    make = COMMANDS.get(name)
+    if make is None:
+        raise UsageError(f"unknown command {name!r} (commands: {', '.join(COMMANDS)})")
     command = make(params)
     command.encode()  # every field's range, as the wire would refuse it
-    return command, params.get("id")
+    return command
