@@ -66,6 +66,22 @@ def test_a_bad_config_names_the_key(tmp_path: Path, text: str, key: str) -> None
     assert key.lower() in result.output.lower()
 
 
+@pytest.mark.parametrize(
+    ("text", "key"),
+    [
+        ('[lines.cell1]\nurl = "sim://"\n[mqtt]\nurl = "mqtt://h"\nqos = 5\n', "mqtt.qos"),
+        ('[lines.cell1]\nurl = "sim://"\n[mqtt]\nurl = "ftp://h"\n', "mqtt.url"),
+        ('[lines.cell1]\nurl = "sim://"\n[n1.lines]\ncell9 = "127.0.0.1:0"\n', "n1.lines.cell9"),
+    ],
+)
+def test_check_also_checks_each_faces_options(tmp_path: Path, text: str, key: str) -> None:
+    path = tmp_path / "faces.toml"
+    path.write_text(text)
+    result = CliRunner().invoke(cli, ["serve", "--check", str(path)])
+    assert result.exit_code != 0
+    assert key in result.output
+
+
 def test_bad_command_line_is_refused_before_anything_opens() -> None:
     runner = CliRunner()
     result = runner.invoke(cli, ["serve", "--line", "nourl"])

@@ -90,6 +90,17 @@ def build_config(
     )
 
 
+def _check_faces(config: ServeConfig) -> None:
+    """Make each face from its options (checking them, naming the bad key) without starting
+    it: nothing is opened, nothing listens."""
+    from robostar.serve import LineServer
+    from robostar.serve.faces import create_face
+
+    server = LineServer(config)
+    for name, options in config.faces.items():
+        create_face(name, server, options)
+
+
 def _describe(config: ServeConfig) -> list[str]:
     out = [f"line {lc.name}: {lc.url} (poll every {lc.poll_interval:g} s)" for lc in config.lines]
     for name, options in config.faces.items():
@@ -191,6 +202,7 @@ def serve(
         return  # `robostar serve user ...`: manage users, serve nothing
     if check_file is not None:
         config = load_config(check_file)
+        _check_faces(config)
         for text in _describe(config):
             click.echo(text)
         click.echo(f"{check_file}: OK ({len(config.lines)} lines)")
