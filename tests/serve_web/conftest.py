@@ -17,7 +17,7 @@ from web_harness import CHROMIUM, PASSWORDS, ROLES, Stack
 
 from robostar.serve.config import LineConfig, ServeConfig
 from robostar.serve.faces.web import WebFace
-from robostar.serve.faces.web.users import UserStore
+from robostar.serve.users import UserStore
 from robostar.serve.server import LineServer
 from robostar.sim import SimConfig, VirtualController
 from robostar.sim.server import SimServer

@@ -10,7 +10,7 @@ from click.testing import CliRunner
 
 from robostar.cli.serve_users import user
 from robostar.errors import UsageError
-from robostar.serve.faces.web.users import Role, UserStore
+from robostar.serve.users import Role, UserStore
 
 
 def test_passwords_are_stored_hashed_and_verified(tmp_path: Path) -> None:

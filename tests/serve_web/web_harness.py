@@ -25,7 +25,7 @@ import pytest
 pytest.importorskip("starlette", reason="the web face needs the 'web' extra")
 
 from robostar.serve.faces.web import WebFace
-from robostar.serve.faces.web.users import Role
+from robostar.serve.users import Role
 from robostar.serve.server import LineServer
 from robostar.sim import VirtualController
 from robostar.sim.server import SimServer

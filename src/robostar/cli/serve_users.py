@@ -38,7 +38,7 @@ _users_option = click.option(
 )
 def add(name: str, role: str, users_file: str, password: str) -> None:
     """Add a user, or give an existing one a new role and password."""
-    from robostar.serve.faces.web.users import Role, UserStore
+    from robostar.serve.users import Role, UserStore
 
     store = UserStore(users_file)
     added = store.add(name, Role.parse(role), password)
@@ -50,7 +50,7 @@ def add(name: str, role: str, users_file: str, password: str) -> None:
 @_users_option
 def remove(name: str, users_file: str) -> None:
     """Remove a user."""
-    from robostar.serve.faces.web.users import UserStore
+    from robostar.serve.users import UserStore
 
     UserStore(users_file).remove(name)
     click.echo(f"{name}: removed")
@@ -60,7 +60,7 @@ def remove(name: str, users_file: str) -> None:
 @_users_option
 def list_users(users_file: str) -> None:
     """List the users and their roles (never the hashes)."""
-    from robostar.serve.faces.web.users import UserStore
+    from robostar.serve.users import UserStore
 
     store = UserStore(users_file)
     for name in store.names():

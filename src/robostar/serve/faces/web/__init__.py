@@ -53,7 +53,7 @@ class WebFace:
         if unknown:
             raise UsageError(f"web: unknown option(s) {', '.join(sorted(unknown))}")
         from robostar.serve.faces.web.app import WebSettings, build_app
-        from robostar.serve.faces.web.users import UserStore
+        from robostar.serve.users import UserStore
 
         self.host, self.port = _listen(str(options.get("listen", DEFAULT_LISTEN)))
         tls = (options.get("tls_cert"), options.get("tls_key"))

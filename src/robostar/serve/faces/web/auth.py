@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 from starlette.requests import HTTPConnection, Request
 
-from robostar.serve.faces.web.users import Role, User, UserStore
+from robostar.serve.users import Role, User, UserStore
 
 __all__ = ["CSRF_FIELD", "CSRF_HEADER", "Account", "LoginLimiter", "account_of", "csrf_ok"]
 

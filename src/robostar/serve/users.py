@@ -1,4 +1,5 @@
-"""The web face's users: names, roles and argon2-hashed passwords in a TOML file.
+"""The line server's users: names, roles and argon2-hashed passwords in a TOML file (shared by
+the faces that sign people in: the web dashboard, OPC UA).
 
 The file is written by ``robostar serve user add NAME --role ROLE`` and read by the web face at
 start. There is no default user and no default password: with no users file, the dashboard is
