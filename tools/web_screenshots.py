@@ -40,8 +40,8 @@ def main(out: str = "docs/img", chromium: str = "/usr/bin/chromium") -> None:
 
     from robostar.serve.config import LineConfig, ServeConfig
     from robostar.serve.faces.web import WebFace
-    from robostar.serve.users import Role, UserStore
     from robostar.serve.server import LineServer
+    from robostar.serve.users import Role, UserStore
     from robostar.sim import SimConfig, VirtualController
     from robostar.sim.server import SimServer
 

@@ -17,8 +17,8 @@ from web_harness import CHROMIUM, PASSWORDS, ROLES, Stack
 
 from robostar.serve.config import LineConfig, ServeConfig
 from robostar.serve.faces.web import WebFace
-from robostar.serve.users import UserStore
 from robostar.serve.server import LineServer
+from robostar.serve.users import UserStore
 from robostar.sim import SimConfig, VirtualController
 from robostar.sim.server import SimServer
 

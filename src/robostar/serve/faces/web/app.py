@@ -54,13 +54,13 @@ from robostar.serve.faces.web.auth import (
     csrf_ok,
 )
 from robostar.serve.faces.web.jog import JogSession
-from robostar.serve.users import Role, UserStore
 from robostar.serve.faces.web.variables import KINDS, PAGE_MAX, build_write, page_range, read_rows
 from robostar.serve.faces.web.views import axis_unit, change_json, sample_json
 from robostar.serve.jsonable import jsonable
 from robostar.serve.lease import Who
 from robostar.serve.line import Line
 from robostar.serve.server import LineServer
+from robostar.serve.users import Role, UserStore
 from robostar.types import (
     ArmForm,
     CoordSystem,
