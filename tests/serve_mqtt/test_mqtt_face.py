@@ -28,7 +28,7 @@ from robostar.types import ArmForm, Position, PositionKind
 
 from .conftest import Broker
 
-pytestmark = pytest.mark.timeout(60)
+pytestmark = pytest.mark.timeout(180)
 
 
 def _server(broker: Broker, **mqtt: Any) -> LineServer:
@@ -144,7 +144,7 @@ def test_the_last_will_on_kill_9(broker: Broker) -> None:
 
 def test_broker_restart_replays_the_buffered_changes_in_order(broker: Broker) -> None:
     async def main() -> None:
-        async with _server(broker, rate=1000, reconnect_max=0.5, publish_timeout=1.0) as server:
+        async with _server(broker, rate=1000, reconnect_max=0.5) as server:
             line = server.lines["cell1"]
             link = server.faces["mqtt"].links["cell1"]  # type: ignore[attr-defined]
             await _until(lambda: link.client is not None)

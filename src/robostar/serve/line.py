@@ -503,8 +503,13 @@ class Line:
                 self.model.mark(Quality.STALE, only=Quality.GOOD)
             delay = self.config.poll_interval - (time.monotonic() - started)
             self._poll_now.clear()
-            with contextlib.suppress(TimeoutError):
-                await asyncio.wait_for(self._poll_now.wait(), max(0.0, delay))
+            # asyncio.wait, not wait_for: on Python 3.11 wait_for can swallow a cancellation
+            # that races with the event, and stop() would wait forever for the poller.
+            waiter = asyncio.ensure_future(self._poll_now.wait())
+            try:
+                await asyncio.wait({waiter}, timeout=max(0.0, delay))
+            finally:
+                waiter.cancel()
 
     async def _poll_one(self, command: Command[Any]) -> None:
         key = model_key(command) or command.CODE

@@ -166,6 +166,26 @@ def settings_from(options: Mapping[str, Any]) -> MqttSettings:
     )
 
 
+def _check_cancelled() -> None:
+    """Raise CancelledError if this task was asked to stop. On Python 3.11 a cancellation that
+    races with a timeout inside asyncio.wait_for (which aiomqtt's publish uses) comes out as a
+    timeout; a loop that handles timeouts must look for it, or a stop would wait forever."""
+    task = asyncio.current_task()
+    if task is not None and task.cancelling():
+        raise asyncio.CancelledError
+
+
+async def _wait_event(event: asyncio.Event, timeout: float | None) -> None:
+    """Wait until ``event`` is set or ``timeout`` passes. Not wait_for nor asyncio.timeout: on
+    Python 3.11 both can swallow a cancellation that races with the event or the timeout, and
+    a stop would then wait forever for this task. asyncio.wait never does."""
+    waiter = asyncio.ensure_future(event.wait())
+    try:
+        await asyncio.wait({waiter}, timeout=timeout)
+    finally:
+        waiter.cancel()
+
+
 class _LineLink:
     """One line's connection, buffer and pump."""
 
@@ -194,14 +214,14 @@ class _LineLink:
             feeder = asyncio.create_task(self._feed(changes))
             try:
                 while True:
+                    _check_cancelled()
                     now = time.monotonic()
                     for key, sample in self.reporter.due(now):
                         await self.send(key, sample)
                     due = self.reporter.next_due(now)
                     self.wake.clear()
                     timeout = None if due is None else max(0.0, due - time.monotonic())
-                    with contextlib.suppress(TimeoutError):
-                        await asyncio.wait_for(self.wake.wait(), timeout)
+                    await _wait_event(self.wake, timeout)
             finally:
                 feeder.cancel()
 
@@ -230,6 +250,7 @@ class _LineLink:
             )
             self.published += 1
         except (aiomqtt.MqttError, TimeoutError) as exc:
+            _check_cancelled()
             log.warning("mqtt %s: publish failed (%s); buffering", self.line.name, exc)
             self.client = None
             self.kicked.set()
@@ -274,6 +295,7 @@ class _LineLink:
                     if reader in done:
                         reader.result()  # the connection's error
             except aiomqtt.MqttError as exc:
+                _check_cancelled()
                 log.warning("mqtt %s: %s; retrying in %.1f s", self.line.name, exc, backoff)
             finally:
                 self.client = None
@@ -296,15 +318,21 @@ class _LineLink:
                 batch = self.buffer.peek(500)
                 if not batch:
                     break
-                for row in batch:
-                    await client.publish(
-                        row.topic,
-                        row.payload,
-                        qos=self.face.settings.qos,
-                        retain=row.retain,
-                        timeout=self.face.settings.publish_timeout,
-                    )
-                self.buffer.remove(batch[-1].id)
+                sent = None
+                try:
+                    for row in batch:
+                        await client.publish(
+                            row.topic,
+                            row.payload,
+                            qos=self.face.settings.qos,
+                            retain=row.retain,
+                            timeout=self.face.settings.publish_timeout,
+                        )
+                        sent = row.id
+                finally:
+                    # What went out is out: a broken replay resumes after it, never repeats it.
+                    if sent is not None:
+                        self.buffer.remove(sent)
             if self.buffer.dropped:
                 status = {"line": self.line.name, "dropped": self.buffer.dropped}
                 await client.publish(
@@ -404,7 +432,7 @@ class MqttFace:
                     async for _ in client.messages:
                         pass
             except aiomqtt.MqttError:
-                pass
+                _check_cancelled()
             await asyncio.sleep(backoff)
             backoff = min(backoff * 2, self.settings.reconnect_max)
 
