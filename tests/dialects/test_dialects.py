@@ -14,19 +14,24 @@ from robostar.commands.files import DownloadFile
 from robostar.commands.status import ReadPosition
 from robostar.commands.variables import ReadGlobalFloat
 from robostar.errors import UsageError
-from robostar.sim import SimConfig, VirtualController
+from robostar.sim import SimConfig
 from robostar.sim.dialects import DIALECTS, dialect_named
-from robostar.transport import PeerTransport
+from robostar.testing import N1Sim
 from robostar.types import ArmForm, CoordSystem, JobFile, Point, Position, PositionKind
 
 JOB = ("MAIN", "MOVE P1", "MOVE P2", "EOP")
 
 
-@pytest.fixture(params=sorted(DIALECTS))
-def robot(request: pytest.FixtureRequest) -> Iterator[Client]:
-    config = SimConfig(speedup=200.0, seed=7, dialect=request.param)
-    with Client(PeerTransport(VirtualController(config)), timeout=1.0, poll_interval=0.005) as c:
-        yield c
+@pytest.fixture(
+    params=[
+        pytest.param(name, marks=pytest.mark.n1_sim(dialect=name, speedup=200, seed=7))
+        for name in sorted(DIALECTS)
+    ]
+)
+def robot(n1_client: Client, n1_sim: N1Sim, request: pytest.FixtureRequest) -> Iterator[Client]:
+    # The plugin's own fixtures (robostar.testing), one simulator per dialect.
+    assert n1_sim.controller.config.dialect == request.param
+    yield n1_client
 
 
 def test_positions(robot: Client) -> None:
