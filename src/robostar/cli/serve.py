@@ -152,7 +152,12 @@ async def _run(config: ServeConfig) -> None:
 @click.option("--api", metavar="HOST:PORT", help="The local JSON API.")
 @click.option("--metrics", metavar="HOST:PORT", help="Prometheus metrics at /metrics.")
 @click.option("--mqtt", metavar="URL", help="Publish to an MQTT broker.")
-@click.option("--opcua", metavar="HOST:PORT", help="Serve OPC UA.")
+@click.option("--opcua", metavar="HOST:PORT", help="Serve OPC UA (Robotics companion spec).")
+@click.option(
+    "--opcua-allow-anonymous-read",
+    is_flag=True,
+    help="Also an unsigned, read-only OPC UA endpoint for local tools (loopback only).",
+)
 @click.option("--web", metavar="HOST:PORT", help="Serve the web dashboard.")
 @click.option("--audit", metavar="FILE", help="Append every state change to FILE (JSONL).")
 @click.option("--allow-remote", is_flag=True, help="Allow binding beyond loopback (needs --token).")
@@ -177,6 +182,7 @@ def serve(
     metrics: str | None,
     mqtt: str | None,
     opcua: str | None,
+    opcua_allow_anonymous_read: bool,
     web: str | None,
     audit: str | None,
     allow_remote: bool,
@@ -196,7 +202,8 @@ def serve(
       robostar --port serve://127.0.0.1:8470/cell1 status
       robostar serve --check serve.toml                  # validate, open nothing
       robostar serve --config serve.toml --metrics 127.0.0.1:9464
-      robostar serve user add olga --role operator --users users.toml   # web dashboard users
+      robostar serve user add olga --role operator --users users.toml   # web and OPC UA users
+      robostar serve --line cell1=sim:// --opcua 127.0.0.1:4840 --opcua-allow-anonymous-read
     """
     if ctx.invoked_subcommand is not None:
         return  # `robostar serve user ...`: manage users, serve nothing
@@ -211,6 +218,10 @@ def serve(
         raise UsageError("--allow-remote needs --token (or ROBOSTAR_SERVE_TOKEN)")
     faces = {"api": api, "metrics": metrics, "mqtt": mqtt, "opcua": opcua, "web": web}
     config = build_config(config_file, lines, n1, faces, allow_remote, token, audit)
+    if opcua_allow_anonymous_read:
+        if "opcua" not in config.faces:
+            raise UsageError("--opcua-allow-anonymous-read needs --opcua (or [opcua])")
+        config.faces["opcua"]["allow_anonymous_read"] = True
     handler = logging.StreamHandler(sys.stderr)
     if log_format == "json":
         handler.setFormatter(_JsonLines())

@@ -1,0 +1,201 @@
+"""The OPC UA face: every line as a Robotics companion-spec motion device system (OPC 40010-1).
+
+``robostar serve --opcua HOST:PORT`` (or ``[opcua]`` in the config; docs/opcua.md) starts an
+asyncua server with the DI, IA and Robotics nodesets and, under DI's ``DeviceSet``, one
+``MotionDeviceSystemType`` per line (``address_space.py``). The lines' models fill its
+variables with source timestamps and status codes, and alarms become events
+(``publisher.py``); ``Start``, ``Stop``, ``LoadByName`` and a vendor ``EmergencyStop`` go
+through the line's lease and audit for operators only (``methods.py``).
+
+Security by default (``security.py``): Basic256Sha256 endpoints only (Sign, SignAndEncrypt),
+a self-signed application certificate made on first start and kept, users from the line
+server's users file; no anonymous access and no unsigned endpoint unless
+``allow_anonymous_read`` (loopback only), which adds a read-only one for local tools.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+import time
+from collections.abc import Mapping
+from typing import TYPE_CHECKING, Any
+
+from asyncua import ua
+from asyncua.server.event_generator import EventGenerator
+from asyncua.server.server import Server
+
+from robostar.serve.faces.opcua._ua import ObjectIds
+from robostar.serve.faces.opcua.address_space import (
+    DeviceNodes,
+    Namespaces,
+    build_line,
+    namespaces,
+)
+from robostar.serve.faces.opcua.methods import handler_for
+from robostar.serve.faces.opcua.nodesets import CachedInternalServer, LoadReport
+from robostar.serve.faces.opcua.publisher import ALARM_EVENT_FIELDS, LinePublisher
+from robostar.serve.faces.opcua.security import RoleRuleset, UsersManager, ensure_certificate
+from robostar.serve.faces.opcua.settings import OpcUaSettings, settings_from
+from robostar.serve.users import UserStore
+
+if TYPE_CHECKING:
+    from robostar.serve.line import Line
+    from robostar.serve.server import LineServer
+
+__all__ = ["OpcUaFace", "OpcUaSettings", "create", "settings_from"]
+
+log = logging.getLogger("robostar.serve.opcua")
+
+
+class OpcUaFace:
+    """The OPC UA server of a line server (see the module docstring)."""
+
+    def __init__(self, server: LineServer, settings: OpcUaSettings) -> None:
+        self.server = server
+        self.settings = settings
+        self.users = UserStore(settings.users)
+        self.ua: Server | None = None
+        self.ns: Namespaces | None = None
+        self.devices: dict[str, DeviceNodes] = {}
+        self.publishers: dict[str, LinePublisher] = {}
+        self.tasks: set[asyncio.Task[Any]] = set()
+        self.load = LoadReport()
+        self.startup_seconds = 0.0
+        """Wall time of start(): address space, certificate, the lines' nodes, listening."""
+        self._event_type: ua.NodeId | None = None
+
+    @property
+    def address(self) -> str:
+        """The endpoint URL (with the real port when the settings asked for port 0)."""
+        port = self.port
+        host = self.settings.host
+        return f"opc.tcp://{f'[{host}]' if ':' in host else host}:{port}/"
+
+    @property
+    def port(self) -> int:
+        bserver = self.ua.bserver if self.ua is not None else None
+        return bserver.port if bserver is not None else self.settings.port
+
+    async def start(self) -> None:
+        started = time.perf_counter()
+        s = self.settings
+        manager = UsersManager(self.users, allow_anonymous=s.allow_anonymous_read)
+        iserver = CachedInternalServer(s.cache_dir, user_manager=manager)
+        server = Server(iserver=iserver)
+        await server.init()
+        self.load = await iserver.load_nodesets(server)
+        server.set_endpoint(s.endpoint)
+        server.set_server_name("robostar serve")
+        server.product_uri = "urn:robostar"
+        server.manufacturer_name = "robostar"
+        await server.set_application_uri(s.application_uri)
+        cert, key = await ensure_certificate(s.state_dir, s.application_uri, s.hostname)
+        await server.load_certificate(str(cert))
+        await server.load_private_key(str(key))
+        policies = [
+            ua.SecurityPolicyType.Basic256Sha256_SignAndEncrypt,
+            ua.SecurityPolicyType.Basic256Sha256_Sign,
+        ]
+        tokens: list[type] = [ua.UserNameIdentityToken]
+        if s.allow_anonymous_read:
+            policies.append(ua.SecurityPolicyType.NoSecurity)
+            tokens.append(ua.AnonymousIdentityToken)
+        server.set_security_policy(
+            policies, permission_ruleset=RoleRuleset(self.users, secure=True)
+        )
+        server.set_identity_tokens(tokens)
+        self.ua = server
+        self.ns = await namespaces(server)
+        event_type = await server.create_custom_event_type(
+            self.ns.vendor,
+            "N1AlarmEventType",
+            ObjectIds.BaseEventType,
+            [(name, variant) for name, variant in ALARM_EVENT_FIELDS],
+        )
+        self._event_type = event_type.nodeid
+        for line in self.server.lines.values():
+            await self._build(line)
+        await server.start()
+        self._read_only_unsigned(server)
+        for line in self.server.lines.values():
+            task = asyncio.create_task(self._pump(line), name=f"opcua {line.name}")
+            self.tasks.add(task)
+        self.startup_seconds = time.perf_counter() - started
+        log.info(
+            "opcua face: %s, %d line(s), started in %.2f s (address space %s in %.2f s)",
+            s.endpoint,
+            len(self.devices),
+            self.startup_seconds,
+            "from cache" if self.load.cached else "imported",
+            self.load.seconds,
+        )
+
+    def _read_only_unsigned(self, server: Server) -> None:
+        """Give the unsigned endpoint's channels a ruleset that marks them unsigned, so that
+        nothing that moves the robot is done over it, whoever signs in. asyncua keeps one
+        policy factory per endpoint (a private list, read once its endpoints are made)."""
+        for factory in getattr(server, "_policies", []):
+            if getattr(factory, "mode", None) == ua.MessageSecurityMode.None_:
+                factory.permission_ruleset = RoleRuleset(self.users, secure=False)
+
+    async def _build(self, line: Line) -> None:
+        assert self.ua is not None and self.ns is not None and self._event_type is not None
+        nodes = await build_line(
+            self.ua,
+            self.ns,
+            line.name,
+            line.info,
+            line.channels(),
+            line.config.io_ports,
+            dict(line.config.channels),
+        )
+        self.devices[line.name] = nodes
+        for name, node in nodes.methods.items():
+            self.ua.link_method(node, handler_for(line, name, None))
+        for channel, ch in nodes.channels.items():
+            for key, node in ch.values.items():
+                if key.startswith("method:"):
+                    self.ua.link_method(node, handler_for(line, key[7:], channel))
+        events = EventGenerator(self.ua.iserver.isession)
+        await events.init(self._event_type, emitting_node=nodes.system.nodeid)
+        publisher = LinePublisher(self.ua, nodes, events, self.ns.robotics)
+        await publisher.waiting()
+        self.publishers[line.name] = publisher
+
+    async def _rebuild(self, line: Line) -> None:
+        """The line came up after the face started: its channels and axes are known now."""
+        old = self.devices.pop(line.name)
+        await old.system.delete(recursive=True)
+        await self._build(line)
+
+    async def _pump(self, line: Line) -> None:
+        with line.model.subscribe(maxsize=10_000) as changes:
+            await self.publishers[line.name].apply_all(line.model.snapshot().items())
+            async for change in changes:
+                publisher = self.publishers[line.name]
+                if change.key == "info" and not self.devices[line.name].with_info:
+                    await self._rebuild(line)
+                    await self.publishers[line.name].apply_all(line.model.snapshot().items())
+                    continue
+                try:
+                    await publisher.apply(change.key, change.sample)
+                except Exception:  # one bad value must not stop the line's updates
+                    log.exception("opcua %s: cannot show %s", line.name, change.key)
+
+    async def stop(self) -> None:
+        for task in list(self.tasks):
+            task.cancel()
+        for task in list(self.tasks):
+            with contextlib.suppress(asyncio.CancelledError, Exception):
+                await task
+        self.tasks.clear()
+        if self.ua is not None:
+            await self.ua.stop()
+            self.ua = None
+
+
+def create(server: LineServer, options: Mapping[str, Any]) -> OpcUaFace:
+    """``options``: the ``[opcua]`` section (docs/opcua.md)."""
+    return OpcUaFace(server, settings_from(options))

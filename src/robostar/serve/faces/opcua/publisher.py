@@ -1,0 +1,236 @@
+"""A line's model into its OPC UA nodes: values with source time and status, alarms as events.
+
+Each change of the line's model (``ControllerModel``) becomes writes of the variables that show
+it, with the time the value was read as the source timestamp and the model's quality as the
+status code: ``Good``; ``UncertainLastUsableValue`` when a poll failed and nobody can vouch for
+the value; ``BadCommunicationError`` while the line is down. A new alarm raises an
+``N1AlarmEventType`` event with the controller's code and text (``Active`` true), a cleared one
+another (``Active`` false).
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import logging
+from collections.abc import Iterable
+from typing import Any
+
+from asyncua import ua
+from asyncua.common.event_objects import BaseEvent
+from asyncua.server.event_generator import EventGenerator
+from asyncua.server.server import Server
+
+from robostar.serve.faces.opcua._ua import (
+    StatusCodes,
+    UaStatusCodeError,
+    node_id,
+    status,
+    timestamp,
+)
+from robostar.serve.faces.opcua.address_space import ChannelNodes, DeviceNodes
+from robostar.serve.model import Quality, Sample
+from robostar.types import Alarm, ChannelStatus, Position
+
+__all__ = ["ALARM_EVENT_FIELDS", "EMERGENCY_CODES", "LinePublisher", "status_of"]
+
+log = logging.getLogger("robostar.serve.opcua")
+
+EMERGENCY_CODES = frozenset((1153,))
+"""Alarm codes that mean an emergency stop (1153 "T/P Emergency", from the manual); an alarm
+whose text says "Emergency" counts too, so a controller's own codes are caught."""
+
+ALARM_EVENT_FIELDS = (
+    ("AlarmCode", ua.VariantType.Int32),
+    ("AlarmText", ua.VariantType.String),
+    ("Line", ua.VariantType.String),
+    ("Active", ua.VariantType.Boolean),
+)
+"""The properties of the vendor event type N1AlarmEventType (a BaseEventType)."""
+
+_STATUS = {
+    Quality.GOOD: status(StatusCodes.Good),
+    Quality.STALE: status(StatusCodes.UncertainLastUsableValue),
+    Quality.LINE_DOWN: status(StatusCodes.BadCommunicationError),
+}
+WAITING = status(StatusCodes.BadWaitingForInitialData)
+
+# TaskControlStateMachineType's states (Robotics nodeset ids)
+_STATE_IDS = {"Idle": 5040, "Ready": 5041, "Executing": 5042}
+
+
+def status_of(quality: Quality) -> ua.StatusCode:
+    return _STATUS[quality]
+
+
+def is_emergency(alarm: Alarm) -> bool:
+    return alarm.code in EMERGENCY_CODES or "emergency" in alarm.text.lower()
+
+
+class LinePublisher:
+    """Writes one line's model changes into its nodes (see the module docstring)."""
+
+    def __init__(
+        self, server: Server, nodes: DeviceNodes, events: EventGenerator, robotics_ns: int
+    ) -> None:
+        self.server = server
+        self.nodes = nodes
+        self.events = events
+        self.robotics_ns = robotics_ns
+        self._alarms: dict[int, Alarm] | None = None
+        self._jobs: dict[int, bool] = {}
+        self._running: dict[int, bool] = {}
+        self.writes = 0
+        self.events_sent = 0
+
+    # -- writing -----------------------------------------------------------------------------
+    async def _write(
+        self, node: Any, value: Any, variant: ua.VariantType, sample: Sample | None
+    ) -> None:
+        if sample is None:
+            status, at = WAITING, None
+        else:
+            status = status_of(sample.quality)
+            at = timestamp(dt.datetime.fromtimestamp(sample.at, dt.UTC))
+        data = ua.DataValue(
+            Value=ua.Variant(value, variant),
+            StatusCode=status,
+            SourceTimestamp=at,
+            ServerTimestamp=timestamp(dt.datetime.now(dt.UTC)),
+        )
+        await self.server.write_attribute_value(node.nodeid, data)
+        self.writes += 1
+
+    async def waiting(self) -> None:
+        """Every variable the model fills says so until the model has a value."""
+        for ch in self.nodes.channels.values():
+            for node in ch.axes:
+                await self._write(node, 0.0, ua.VariantType.Double, None)
+            for name, node in ch.values.items():
+                if not name.startswith("method:") and name != "execution_mode":
+                    variant = await _variant_of(node)
+                    await self._write(node, await node.read_value(), variant, None)
+        for node in self.nodes.values.values():
+            variant = await _variant_of(node)
+            await self._write(node, await node.read_value(), variant, None)
+
+    async def apply_all(self, samples: Iterable[tuple[str, Sample]]) -> None:
+        for key, sample in samples:
+            await self.apply(key, sample)
+
+    async def apply(self, key: str, sample: Sample) -> None:
+        """Show one model key's new sample (unknown keys are ignored)."""
+        value = sample.value
+        nodes = self.nodes
+        if key.startswith("ch") and "/" in key:
+            head, _, what = key.partition("/")
+            channel = nodes.channels.get(int(head[2:])) if head[2:].isdigit() else None
+            if channel is not None:
+                await self._channel(channel, what, value, sample)
+            return
+        if key == "online":
+            await self._write(nodes.values["online"], bool(value), ua.VariantType.Boolean, sample)
+        elif key == "alarms":
+            await self._alarm_list(value, sample)
+        elif key == "alarm_history":
+            texts = [f"{r.code:04d} : {r.text} ({r.detail})".rstrip() for r in value]
+            await self._write(nodes.values["alarm_history"], texts, ua.VariantType.String, sample)
+        elif key.startswith("io/"):
+            node = nodes.values.get(key)
+            if node is not None:
+                contacts = list(value.contacts)
+                await self._write(node, contacts, ua.VariantType.Boolean, sample)
+
+    async def _channel(self, ch: ChannelNodes, what: str, value: Any, sample: Sample) -> None:
+        v = ch.values
+        if what == "angles" and isinstance(value, Position):
+            for node, axis_value in zip(ch.axes, value.axes, strict=False):
+                await self._write(node, float(axis_value), ua.VariantType.Double, sample)
+        elif what == "position" and isinstance(value, Position):
+            await self._write(v["cartesian"], list(value.axes), ua.VariantType.Double, sample)
+            await self._write(v["arm"], value.arm.name, ua.VariantType.String, sample)
+        elif what == "status" and isinstance(value, ChannelStatus):
+            await self._write(v["in_control"], value.servo_on, ua.VariantType.Boolean, sample)
+            for name in ("origin", "in_position", "ready", "running", "alarm"):
+                flag = bool(getattr(value, name))
+                await self._write(v[name], flag, ua.VariantType.Boolean, sample)
+            self._running[ch.channel] = value.running
+            await self._state(ch, sample)
+        elif what == "speed":
+            # the N1's speed is 0-1000 (1000 = 100 %); SpeedOverride is a percentage
+            await self._write(v["speed"], value / 10.0, ua.VariantType.Double, sample)
+        elif what == "job":
+            name = str(value) if value is not None else ""
+            await self._write(v["program"], name, ua.VariantType.String, sample)
+            await self._write(v["loaded"], bool(name), ua.VariantType.Boolean, sample)
+            self._jobs[ch.channel] = bool(name)
+            await self._state(ch, sample)
+        elif what == "step":
+            await self._write(v["step"], int(value), ua.VariantType.Int32, sample)
+
+    async def _state(self, ch: ChannelNodes, sample: Sample) -> None:
+        """The task control state machine: Executing while running, Ready with a job loaded,
+        else Idle."""
+        if self._running.get(ch.channel):
+            state = "Executing"
+        elif self._jobs.get(ch.channel):
+            state = "Ready"
+        else:
+            state = "Idle"
+        node = ch.values["current_state"]
+        await self._write(node, ua.LocalizedText(state), ua.VariantType.LocalizedText, sample)
+        state_id = ch.values.get("current_state_id")
+        if state_id is None:
+            try:
+                state_id = await node.get_child([ua.QualifiedName("Id", 0)])
+            except UaStatusCodeError:
+                return
+            ch.values["current_state_id"] = state_id
+        await self._write(
+            state_id,
+            node_id(_STATE_IDS[state], self.robotics_ns),
+            ua.VariantType.NodeId,
+            sample,
+        )
+
+    async def _alarm_list(self, alarms: tuple[Alarm, ...], sample: Sample) -> None:
+        nodes = self.nodes
+        texts = [str(a) for a in alarms]
+        await self._write(nodes.values["alarms"], texts, ua.VariantType.String, sample)
+        emergency = any(is_emergency(a) for a in alarms)
+        await self._write(nodes.values["emergency_stop"], emergency, ua.VariantType.Boolean, sample)
+        if sample.quality is not Quality.GOOD:
+            return  # a line that went down cleared no alarm
+        current = {a.code: a for a in alarms}
+        before = self._alarms
+        self._alarms = current
+        if before is None:
+            raised, cleared = list(current.values()), []
+        else:
+            raised = [a for code, a in current.items() if code not in before]
+            cleared = [a for code, a in before.items() if code not in current]
+        for alarm in raised:
+            await self._event(alarm, active=True)
+        for alarm in cleared:
+            await self._event(alarm, active=False)
+
+    async def _event(self, alarm: Alarm, *, active: bool) -> None:
+        event: BaseEvent = self.events.event
+        fields = {
+            "AlarmCode": alarm.code,
+            "AlarmText": alarm.text,
+            "Line": self.nodes.line,
+            "Active": active,
+            "Severity": (900 if is_emergency(alarm) else 700) if active else 100,
+            "SourceName": self.nodes.line,
+        }
+        for name, value in fields.items():  # the event type's own fields, set by name
+            setattr(event, name, value)
+        verb = "alarm" if active else "alarm cleared"
+        await self.events.trigger(message=f"{self.nodes.line}: {verb} {alarm}")
+        self.events_sent += 1
+
+
+async def _variant_of(node: Any) -> ua.VariantType:
+    data = await node.read_data_value()
+    variant: ua.VariantType = data.Value.VariantType
+    return variant

@@ -1,0 +1,171 @@
+"""The OPC UA face on a free loopback port with the simulator behind it, and asyncua's own
+client to talk to it (issue #16)."""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+from collections.abc import AsyncIterator, Iterator
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import pytest
+from asyncua import Client, ua
+from asyncua.common.node import Node
+from asyncua.crypto.cert_gen import setup_self_signed_certificate
+from cryptography.x509.oid import ExtendedKeyUsageOID
+
+from robostar.serve import LineConfig, LineServer, ServeConfig
+from robostar.serve.users import Role, UserStore
+
+CLIENT_URI = "urn:robostar:tests:opcua-client"
+PASSWORDS = {"olga": "operator-pass-1", "vic": "viewer-pass-1"}
+"""olga is an operator, vic a viewer."""
+
+
+@dataclass(frozen=True)
+class Setup:
+    users: Path
+    state: Path
+    cache: Path
+    client_cert: Path
+    client_key: Path
+
+
+@pytest.fixture(scope="session")
+def opcua_setup(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Setup]:
+    """Users, a certificate directory, a nodeset cache and a client certificate, shared by the
+    session's tests (the first server of the session imports the nodesets, the others load
+    the cache)."""
+    root = tmp_path_factory.mktemp("opcua")
+    users = UserStore(root / "users.toml")
+    users.add("olga", Role.OPERATOR, PASSWORDS["olga"])
+    users.add("vic", Role.VIEWER, PASSWORDS["vic"])
+    cert, key = root / "client-cert.der", root / "client-key.pem"
+    asyncio.run(
+        setup_self_signed_certificate(
+            key,
+            cert,
+            CLIENT_URI,
+            "localhost",
+            [ExtendedKeyUsageOID.CLIENT_AUTH],
+            {"commonName": "robostar tests"},
+        )
+    )
+    yield Setup(root / "users.toml", root / "state", root / "cache", cert, key)
+
+
+def config(
+    setup: Setup, *, url: str = "sim://?speedup=20", poll: float = 0.05, **opcua: Any
+) -> ServeConfig:
+    options: dict[str, Any] = {
+        "listen": "127.0.0.1:0",
+        "users": str(setup.users),
+        "state_dir": str(setup.state),
+        "cache_dir": str(setup.cache),
+    }
+    options.update(opcua)
+    line = LineConfig("cell1", url, poll_interval=poll)
+    return ServeConfig(
+        lines=(line,), faces={"opcua": options}, audit_path=str(setup.state / "audit.jsonl")
+    )
+
+
+@contextlib.asynccontextmanager
+async def serving(setup: Setup, **options: Any) -> AsyncIterator[LineServer]:
+    server = LineServer(config(setup, **options))
+    await server.start()
+    try:
+        yield server
+    finally:
+        await server.stop()
+
+
+@contextlib.asynccontextmanager
+async def connect(
+    server: LineServer,
+    setup: Setup,
+    user: str | None = "olga",
+    *,
+    mode: str = "SignAndEncrypt",
+    password: str | None = None,
+) -> AsyncIterator[Client]:
+    """An asyncua client signed in as ``user`` (None: anonymous) over ``mode`` (``None_``: the
+    unsigned endpoint)."""
+    face: Any = server.faces["opcua"]
+    client = Client(face.address, timeout=10)
+    client.application_uri = CLIENT_URI
+    if mode != "None_":
+        await client.set_security_string(
+            f"Basic256Sha256,{mode},{setup.client_cert},{setup.client_key}"
+        )
+    if user is not None:
+        client.set_user(user)
+        client.set_password(password if password is not None else PASSWORDS[user])
+    async with client:
+        yield client
+
+
+class Model:
+    """Browse-name paths into the Robotics model of line ``cell1``, as a SCADA client finds
+    them: DeviceSet / <line> / ..."""
+
+    def __init__(self, client: Client) -> None:
+        self.client = client
+
+    async def ns(self) -> tuple[int, int, int]:
+        c = self.client
+        return (
+            await c.get_namespace_index("http://opcfoundation.org/UA/DI/"),
+            await c.get_namespace_index("http://opcfoundation.org/UA/Robotics/"),
+            await c.get_namespace_index("urn:robostar:n1"),
+        )
+
+    async def system(self, line: str = "cell1") -> Node:
+        di, _, vendor = await self.ns()
+        device_set = self.client.get_node(ua.NodeId(5001, di))
+        return await device_set.get_child([f"{vendor}:{line}"])
+
+    async def path(self, *names: str) -> Node:
+        """A node below the system by browse names, each ``di:``, ``rob:``, ``ven:`` or
+        ``0:`` prefixed."""
+        di, rob, vendor = await self.ns()
+        prefixes = {"di": di, "rob": rob, "ven": vendor, "0": 0}
+        qualified = []
+        for name in names:
+            prefix, _, rest = name.partition(":")
+            qualified.append(f"{prefixes[prefix]}:{rest}")
+        return await (await self.system()).get_child(qualified)
+
+    async def axis_position(self, channel: int, axis: int) -> Node:
+        return await self.path(
+            "rob:MotionDevices",
+            f"rob:Channel{channel}",
+            "rob:Axes",
+            f"rob:Axis{axis}",
+            "di:ParameterSet",
+            "rob:ActualPosition",
+        )
+
+    async def state_machine(self, channel: int) -> Node:
+        return await self.path(
+            "rob:Controllers",
+            "rob:cell1",
+            "rob:TaskControls",
+            f"rob:Channel{channel}",
+            "rob:TaskControlOperation",
+            "rob:TaskControlStateMachine",
+        )
+
+
+async def until(predicate: Any, timeout: float = 10.0, what: str = "condition") -> None:
+    """Wait for an async predicate to hold (polled; the machine may be slow, never a race)."""
+    loop = asyncio.get_running_loop()
+    deadline = loop.time() + timeout
+    while True:
+        if await predicate():
+            return
+        if loop.time() > deadline:
+            raise AssertionError(f"timed out waiting for {what}")
+        await asyncio.sleep(0.05)

@@ -1,0 +1,508 @@
+"""The OPC UA face with asyncua's real client: the Robotics model by browse names, values that
+follow the simulator, subscriptions, alarm events, gated methods, refused writes, security
+defaults, the nodeset cache (issue #16)."""
+
+from __future__ import annotations
+
+import asyncio
+import json
+from typing import Any
+
+import pytest
+from asyncua import ua
+from asyncua.common.subscription import DataChangeNotif
+
+from robostar.commands.control import ResetAlarms, SetSpeed
+from robostar.commands.motion import Home, Move
+from robostar.commands.status import ReadPosition
+from robostar.errors import UsageError
+from robostar.serve.faces.opcua import settings_from
+from robostar.serve.lease import Who
+from robostar.serve.model import Quality
+from robostar.types import CoordSystem, MotionType, PositionKind
+
+from .conftest import Model, Setup, connect, serving, until
+
+pytestmark = pytest.mark.timeout(120)
+
+TESTER = Who("tester", "cli")
+
+
+def run(coro: Any) -> Any:
+    return asyncio.run(coro)
+
+
+class Changes:
+    """An asyncua subscription handler keeping every data change and event."""
+
+    def __init__(self) -> None:
+        self.values: list[tuple[Any, Any]] = []
+        self.events: list[Any] = []
+
+    def datachange_notification(self, node: Any, value: Any, data: DataChangeNotif) -> None:
+        self.values.append((node, value))
+
+    def event_notification(self, event: Any) -> None:
+        self.events.append(event)
+
+
+async def _home(server: Any) -> None:
+    line = server.line("cell1")
+    await line.execute(Home(1), who=TESTER, implicit_lease=True)
+    line.lease.release(TESTER)
+
+    async def homed() -> bool:
+        status = line.model.get("ch1/status")
+        return status is not None and status.value.origin and not status.value.running
+
+    await until(homed, what="channel 1 homed")
+
+
+# -- the information model ----------------------------------------------------------------
+def test_the_robotics_structure_by_browse_names(opcua_setup: Setup) -> None:
+    async def main() -> None:
+        async with serving(opcua_setup) as server, connect(server, opcua_setup) as client:
+            model = Model(client)
+            _, rob, _ = await model.ns()
+            system = await model.system()
+            type_def = await system.read_type_definition()
+            assert type_def == ua.NodeId(1002, rob)  # MotionDeviceSystemType
+            names = {(await n.read_browse_name()).Name for n in await system.get_children()}
+            assert {"MotionDevices", "Controllers", "SafetyStates"} <= names
+            # no placeholder of the type is left in the instance
+            assert not any(name.startswith("<") for name in names)
+            device = await model.path("rob:MotionDevices", "rob:Channel1")
+            assert await device.read_type_definition() == ua.NodeId(1004, rob)
+            maker = await model.path("rob:MotionDevices", "rob:Channel1", "di:Manufacturer")
+            assert (await maker.read_value()).Text == "Robostar"
+            category = await model.path(
+                "rob:MotionDevices", "rob:Channel1", "rob:MotionDeviceCategory"
+            )
+            assert await category.read_value() == 2  # SCARA_ROBOT: the simulator's channel 1
+            axes = await model.path("rob:MotionDevices", "rob:Channel1", "rob:Axes")
+            axis_names = sorted(
+                [(await a.read_browse_name()).Name for a in await axes.get_children()]
+            )
+            assert axis_names == ["Axis1", "Axis2", "Axis3", "Axis4"]
+            profiles = []
+            for axis in (1, 3):
+                node = await model.path(
+                    "rob:MotionDevices",
+                    "rob:Channel1",
+                    "rob:Axes",
+                    f"rob:Axis{axis}",
+                    "rob:MotionProfile",
+                )
+                profiles.append(await node.read_value())
+            assert profiles == [1, 3]  # ROTARY (degrees), LINEAR (Z, mm)
+            units = await (await model.axis_position(1, 3)).get_child(["0:EngineeringUnits"])
+            assert (await units.read_value()).DisplayName.Text == "mm"
+            speed = await model.path(
+                "rob:MotionDevices", "rob:Channel1", "di:ParameterSet", "rob:SpeedOverride"
+            )
+            assert isinstance(await speed.read_value(), float)
+            in_control = await model.path(
+                "rob:MotionDevices", "rob:Channel1", "di:ParameterSet", "rob:InControl"
+            )
+            assert await in_control.read_value() in (True, False)
+            task = await model.path("rob:Controllers", "rob:cell1", "rob:TaskControls")
+            assert [(await t.read_browse_name()).Name for t in await task.get_children()] == [
+                "Channel1",
+                "Channel2",
+            ]
+            program = await model.path(
+                "rob:Controllers",
+                "rob:cell1",
+                "rob:TaskControls",
+                "rob:Channel1",
+                "di:ParameterSet",
+                "rob:TaskProgramName",
+            )
+            assert await program.read_value() == ""
+            machine = await model.state_machine(1)
+            methods = {(await m.read_browse_name()).Name for m in await machine.get_methods()}
+            assert {"Start", "Stop", "LoadByName"} <= methods
+            estop = await model.path(
+                "rob:SafetyStates", "rob:cell1", "di:ParameterSet", "rob:EmergencyStop"
+            )
+            assert await estop.read_value() is False
+            safety = await model.path("rob:SafetyStates", "rob:cell1")
+            assert "Informational" in (await safety.read_description()).Text
+            firmware = await model.path(
+                "rob:Controllers",
+                "rob:cell1",
+                "rob:Software",
+                "rob:Firmware",
+                "di:SoftwareRevision",
+            )
+            assert await firmware.read_value() == server.line("cell1").info.version
+            origin = await model.path(
+                "rob:MotionDevices", "rob:Channel1", "ven:Robostar", "ven:OriginDone"
+            )
+            assert await origin.read_value() is False
+
+    run(main())
+
+
+def test_positions_follow_the_simulator_while_it_moves(opcua_setup: Setup) -> None:
+    async def main() -> None:
+        async with serving(opcua_setup) as server, connect(server, opcua_setup) as client:
+            line = server.line("cell1")
+            await _home(server)
+            model = Model(client)
+            node = await model.axis_position(1, 1)
+            before = line.model.get("ch1/angles")
+            assert before is not None
+            seen: list[float] = [before.value.axes[0]]
+
+            async def collect() -> None:
+                # read every change as it comes: a subscription keeps only the latest per key
+                with line.model.subscribe() as changes:
+                    async for change in changes:
+                        if change.key == "ch1/angles":
+                            seen.append(change.sample.value.axes[0])
+
+            collector = asyncio.create_task(collect())
+            await asyncio.sleep(0)
+            await line.execute(
+                Move(1, MotionType.JOINT, CoordSystem.ANGLE, ((80.0, 40.0, 50.0, 10.0),)),
+                who=TESTER,
+                implicit_lease=True,
+            )
+            readings: list[tuple[float, Any]] = []
+            for _ in range(60):
+                data = await node.read_data_value()
+                readings.append((data.Value.Value, data.SourceTimestamp))
+                await asyncio.sleep(0.02)
+            collector.cancel()
+            values = [v for v, _ in readings]
+            # every value a client read is one the controller reported, and it moved
+            assert all(any(abs(v - s) < 1e-9 for s in seen) for v in values), (values, seen)
+            assert len(set(values)) > 2, values
+
+            async def stopped() -> bool:
+                status = line.model.get("ch1/status")
+                return status is not None and not status.value.running
+
+            await until(stopped, what="the move to end")
+            direct = await line.read(ReadPosition(1, PositionKind.ANGLE), max_age=0)
+
+            async def matches() -> bool:
+                return abs(await node.read_value() - direct.axes[0]) < 1e-9
+
+            await until(matches, what="the OPC UA value to match the controller's")
+            assert direct.axes[0] == pytest.approx(80.0)
+            data = await node.read_data_value()
+            assert data.StatusCode.is_good()
+            assert data.SourceTimestamp is not None
+
+    run(main())
+
+
+def test_a_subscriber_receives_changes(opcua_setup: Setup) -> None:
+    async def main() -> None:
+        async with serving(opcua_setup) as server, connect(server, opcua_setup) as client:
+            model = Model(client)
+            speed = await model.path(
+                "rob:MotionDevices", "rob:Channel1", "di:ParameterSet", "rob:SpeedOverride"
+            )
+            handler = Changes()
+            subscription = await client.create_subscription(20, handler)
+            await subscription.subscribe_data_change(speed)
+            line = server.line("cell1")
+            await line.execute(SetSpeed(1, 250), who=TESTER, implicit_lease=True)
+
+            async def heard() -> bool:
+                return any(value == 25.0 for _, value in handler.values)
+
+            await until(heard, what="SpeedOverride 25 % by subscription")
+            await subscription.delete()
+
+    run(main())
+
+
+def test_values_carry_the_models_quality(opcua_setup: Setup) -> None:
+    async def main() -> None:
+        # a slow poller: the test's marks are not overwritten before they are read
+        async with (
+            serving(opcua_setup, poll=30.0) as server,
+            connect(server, opcua_setup) as client,
+        ):
+            line = server.line("cell1")
+            node = await Model(client).axis_position(1, 1)
+
+            async def status_is(name: str) -> bool:
+                data = await node.read_data_value(raise_on_bad_status=False)
+                return data.StatusCode.value == getattr(ua.StatusCodes, name)
+
+            await until(lambda: status_is("Good"), what="Good")
+            line.model.mark(Quality.STALE)
+            await until(lambda: status_is("UncertainLastUsableValue"), what="Uncertain")
+            line.model.mark(Quality.LINE_DOWN)
+            await until(lambda: status_is("BadCommunicationError"), what="Bad")
+
+    run(main())
+
+
+# -- alarms and methods ----------------------------------------------------------------------
+def test_emergency_stop_raises_an_alarm_event_and_reset_clears_it(opcua_setup: Setup) -> None:
+    async def main() -> None:
+        async with serving(opcua_setup) as server, connect(server, opcua_setup) as client:
+            model = Model(client)
+            _, _, vendor = await model.ns()
+            system = await model.system()
+            event_type = await client.nodes.base_event_type.get_child(
+                [f"{vendor}:N1AlarmEventType"]
+            )
+            handler = Changes()
+            subscription = await client.create_subscription(20, handler)
+            await subscription.subscribe_events(system, event_type)
+            controller = await model.path("rob:Controllers", "rob:cell1", "ven:Robostar")
+            result = await controller.call_method(f"{vendor}:EmergencyStop")
+            assert result == 0
+
+            async def raised() -> bool:
+                return any(e.Active for e in handler.events)
+
+            await until(raised, what="an alarm event")
+            event = next(e for e in handler.events if e.Active)
+            assert event.AlarmCode == 9001 and "Emergency" in event.AlarmText
+            assert event.Line == "cell1" and event.Severity >= 700
+            estop = await model.path(
+                "rob:SafetyStates", "rob:cell1", "di:ParameterSet", "rob:EmergencyStop"
+            )
+            await until(estop.read_value, what="SafetyStates EmergencyStop true")
+            alarms = await model.path("rob:Controllers", "rob:cell1", "ven:Robostar", "ven:Alarms")
+            assert any("9001" in text for text in await alarms.read_value())
+            line = server.line("cell1")
+            await line.execute(ResetAlarms(), who=TESTER, implicit_lease=True)
+
+            async def cleared() -> bool:
+                return any(not e.Active and e.AlarmCode == 9001 for e in handler.events)
+
+            await until(cleared, what="the alarm's clearing event")
+            await subscription.delete()
+        audit = [
+            json.loads(x) for x in (opcua_setup.state / "audit.jsonl").read_text().splitlines()
+        ]
+        assert any(
+            r["who"] == "olga"
+            and r["face"] == "opcua"
+            and "EmergencyStop" in r["what"]
+            and r["outcome"] == "ok"
+            for r in audit
+        )
+
+    run(main())
+
+
+def test_start_and_stop_need_the_operator_role(opcua_setup: Setup) -> None:
+    async def main() -> None:
+        async with serving(opcua_setup) as server:
+            await _home(server)
+            line = server.line("cell1")
+            async with connect(server, opcua_setup, "vic") as viewer:
+                machine = await Model(viewer).state_machine(1)
+                _, rob, _ = await Model(viewer).ns()
+                for method, args in (("Start", ()), ("Stop", (0,)), ("LoadByName", ("DEMO.JOB",))):
+                    with pytest.raises(ua.UaStatusCodeError) as refused:
+                        await machine.call_method(f"{rob}:{method}", *args)
+                    assert refused.value.code == ua.StatusCodes.BadUserAccessDenied
+            assert line.model.get("ch1/job").value is None  # nothing reached the controller
+            async with connect(server, opcua_setup, "olga") as operator:
+                model = Model(operator)
+                machine = await model.state_machine(1)
+                _, rob, _ = await model.ns()
+                with pytest.raises(ua.UaStatusCodeError) as bad_name:
+                    await machine.call_method(f"{rob}:LoadByName", "NO SUCH FILE.JOB")
+                assert bad_name.value.code == ua.StatusCodes.BadInvalidArgument
+                with pytest.raises(ua.UaStatusCodeError) as missing:
+                    await machine.call_method(f"{rob}:LoadByName", "NONE.JOB")
+                assert missing.value.code == ua.StatusCodes.BadInvalidState  # refused by the N1
+                assert await machine.call_method(f"{rob}:LoadByName", "DEMO.JOB") == 0
+                program = await model.path(
+                    "rob:Controllers",
+                    "rob:cell1",
+                    "rob:TaskControls",
+                    "rob:Channel1",
+                    "di:ParameterSet",
+                    "rob:TaskProgramName",
+                )
+
+                async def loaded() -> bool:
+                    return await program.read_value() == "DEMO.JOB"
+
+                await until(loaded, what="TaskProgramName DEMO.JOB")
+                state = await machine.get_child(["0:CurrentState"])
+                assert await machine.call_method(f"{rob}:Start") == 0
+
+                async def executing() -> bool:
+                    return (await state.read_value()).Text == "Executing"
+
+                await until(executing, what="the state machine in Executing")
+                assert (
+                    await machine.call_method(f"{rob}:Stop", ua.Variant(0, ua.VariantType.Int64))
+                    == 0
+                )
+
+                async def not_running() -> bool:
+                    return (await state.read_value()).Text != "Executing"
+
+                await until(not_running, what="the job stopped")
+                # another consumer takes the lease: the operator's Start is refused
+                line.lease.release(Who("olga", "opcua"))
+                line.lease.acquire(Who("someone", "api"))
+                with pytest.raises(ua.UaStatusCodeError) as locked:
+                    await machine.call_method(f"{rob}:Start")
+                assert locked.value.code == ua.StatusCodes.BadLocked
+        audit = [
+            json.loads(x) for x in (opcua_setup.state / "audit.jsonl").read_text().splitlines()
+        ]
+        mine = [r for r in audit if r["face"] == "opcua"]
+        assert any(r["who"] == "vic" and r["outcome"].startswith("refused") for r in mine)
+        assert any(
+            r["who"] == "olga" and "StartJob" in r["what"] and r["outcome"] == "ok" for r in mine
+        )
+
+    run(main())
+
+
+def test_an_active_alarm_refuses_start_without_sending(opcua_setup: Setup) -> None:
+    async def main() -> None:
+        async with serving(opcua_setup) as server, connect(server, opcua_setup) as client:
+            model = Model(client)
+            _, rob, vendor = await model.ns()
+            controller = await model.path("rob:Controllers", "rob:cell1", "ven:Robostar")
+            await controller.call_method(f"{vendor}:EmergencyStop")
+            line = server.line("cell1")
+
+            async def alarmed() -> bool:
+                alarms = line.model.get("alarms")
+                return alarms is not None and bool(alarms.value)
+
+            await until(alarmed, what="the alarm in the model")
+            exchanges = line.health.exchanges
+            machine = await model.state_machine(1)
+            with pytest.raises(ua.UaStatusCodeError) as refused:
+                await machine.call_method(f"{rob}:Start")
+            assert refused.value.code == ua.StatusCodes.BadInvalidState
+            # the poller may have run meanwhile, but no CC went out: the audit says refused
+            del exchanges
+        audit = [
+            json.loads(x) for x in (opcua_setup.state / "audit.jsonl").read_text().splitlines()
+        ]
+        assert audit[-1]["outcome"] == "refused: an alarm is active" or any(
+            r["outcome"] == "refused: an alarm is active" for r in audit
+        )
+
+    run(main())
+
+
+def test_writes_are_refused_even_to_an_operator(opcua_setup: Setup) -> None:
+    async def main() -> None:
+        async with serving(opcua_setup) as server, connect(server, opcua_setup) as client:
+            node = await Model(client).axis_position(1, 1)
+            with pytest.raises(ua.UaStatusCodeError) as refused:
+                await node.write_value(ua.DataValue(ua.Variant(42.0, ua.VariantType.Double)))
+            assert refused.value.code == ua.StatusCodes.BadUserAccessDenied
+            assert await node.read_value() != 42.0
+
+    run(main())
+
+
+# -- security defaults -----------------------------------------------------------------------
+def test_anonymous_and_wrong_passwords_are_refused_by_default(opcua_setup: Setup) -> None:
+    async def main() -> None:
+        async with serving(opcua_setup) as server:
+            with pytest.raises(ua.UaError):
+                async with connect(server, opcua_setup, None):
+                    pass
+            with pytest.raises(ua.UaError):
+                async with connect(server, opcua_setup, "olga", password="not-her-password"):
+                    pass
+            with pytest.raises((ua.UaError, OSError, TimeoutError)):
+                async with connect(server, opcua_setup, "olga", mode="None_"):
+                    pass
+            face: Any = server.faces["opcua"]
+            from asyncua import Client
+
+            endpoints = await Client(face.address).connect_and_get_server_endpoints()
+            modes = {e.SecurityMode for e in endpoints}
+            assert modes == {ua.MessageSecurityMode.Sign, ua.MessageSecurityMode.SignAndEncrypt}
+            policies = {e.SecurityPolicyUri.rsplit("#", 1)[-1] for e in endpoints}
+            assert policies == {"Basic256Sha256"}
+            tokens = {t.TokenType for e in endpoints for t in e.UserIdentityTokens}
+            assert tokens == {ua.UserTokenType.UserName}
+
+    run(main())
+
+
+def test_anonymous_read_opens_a_read_only_unsigned_endpoint(opcua_setup: Setup) -> None:
+    async def main() -> None:
+        async with serving(opcua_setup, allow_anonymous_read=True) as server:
+            async with connect(server, opcua_setup, None, mode="None_") as anonymous:
+                model = Model(anonymous)
+                node = await model.axis_position(1, 1)
+                assert isinstance(await node.read_value(), float)
+                _, rob, _ = await model.ns()
+                machine = await model.state_machine(1)
+                with pytest.raises(ua.UaStatusCodeError) as refused:
+                    await machine.call_method(f"{rob}:Start")
+                assert refused.value.code == ua.StatusCodes.BadUserAccessDenied
+            # even an operator is read-only over the unsigned endpoint
+            async with connect(server, opcua_setup, "olga", mode="None_") as operator:
+                model = Model(operator)
+                _, _, vendor = await model.ns()
+                controller = await model.path("rob:Controllers", "rob:cell1", "ven:Robostar")
+                with pytest.raises(ua.UaStatusCodeError) as refused:
+                    await controller.call_method(f"{vendor}:EmergencyStop")
+                assert refused.value.code == ua.StatusCodes.BadUserAccessDenied
+            assert not server.line("cell1").model.get("alarms").value
+
+    run(main())
+
+
+def test_settings_are_checked(tmp_path: Any) -> None:
+    users = str(tmp_path / "users.toml")
+    with pytest.raises(UsageError, match="loopback"):
+        settings_from({"listen": "0.0.0.0:4840", "users": users})
+    assert settings_from({"listen": "0.0.0.0:4840", "users": users, "allow_remote": True})
+    with pytest.raises(UsageError, match="only on a loopback"):
+        settings_from(
+            {"listen": "0.0.0.0:4840", "allow_remote": True, "allow_anonymous_read": True}
+        )
+    with pytest.raises(UsageError, match="nobody could sign in"):
+        settings_from({"listen": "127.0.0.1:4840"})
+    with pytest.raises(UsageError, match=r"opcua\.colour: unknown option"):
+        settings_from({"users": users, "colour": "blue"})
+    with pytest.raises(UsageError, match="allow_anonymous_read"):
+        settings_from({"users": users, "allow_anonymous_read": "yes"})
+
+
+# -- startup ---------------------------------------------------------------------------------
+def test_the_imported_nodesets_are_cached_for_the_next_start(
+    opcua_setup: Setup, tmp_path: Any
+) -> None:
+    cache = tmp_path / "cache"
+
+    async def start_once() -> tuple[bool, list[str], int]:
+        async with serving(opcua_setup, cache_dir=str(cache)) as server:
+            face: Any = server.faces["opcua"]
+            async with connect(server, opcua_setup) as client:
+                namespaces = await client.get_namespace_array()
+                axes = await Model(client).path("rob:MotionDevices", "rob:Channel1", "rob:Axes")
+                count = len(await axes.get_children())
+                # a Robotics type browses the same either way
+                types = await client.nodes.base_object_type.get_children()
+                types += await client.nodes.object_types.get_children()
+                types += await client.nodes.data_types.get_children()
+                return face.load.cached, namespaces, count + len(types)
+
+    cold = run(start_once())
+    assert list(cache.glob("address-space-*.pickle"))
+    warm = run(start_once())
+    assert (cold[0], warm[0]) == (False, True)
+    assert cold[1:] == warm[1:]
+    (next(cache.glob("address-space-*.pickle"))).write_bytes(b"not a pickle")
+    rebuilt = run(start_once())
+    assert rebuilt == cold  # a broken cache is rebuilt, never trusted
