@@ -475,6 +475,9 @@ class Line:
         while True:
             await self._up.wait()
             started = time.monotonic()
+            # cleared as the cycle starts, not as it ends: a write that lands during the cycle
+            # sets it again and the next cycle starts at once (it would be lost otherwise)
+            self._poll_now.clear()
             try:
                 fast: list[Command[Any]] = [ReadStatus()]
                 for ch in self.channels():
@@ -502,7 +505,6 @@ class Line:
                 # the values are what they were, but nobody can vouch for them now
                 self.model.mark(Quality.STALE, only=Quality.GOOD)
             delay = self.config.poll_interval - (time.monotonic() - started)
-            self._poll_now.clear()
             # asyncio.wait, not wait_for: on Python 3.11 wait_for can swallow a cancellation
             # that races with the event, and stop() would wait forever for the poller.
             waiter = asyncio.ensure_future(self._poll_now.wait())

@@ -84,8 +84,10 @@ class OpcUaFace:
         manager = UsersManager(self.users, allow_anonymous=s.allow_anonymous_read)
         iserver = CachedInternalServer(s.cache_dir, user_manager=manager)
         server = Server(iserver=iserver)
+        space_started = time.perf_counter()
         await server.init()
         self.load = await iserver.load_nodesets(server)
+        self.load.seconds = time.perf_counter() - space_started  # asyncua's init included
         server.set_endpoint(s.endpoint)
         server.set_server_name("robostar serve")
         server.product_uri = "urn:robostar"

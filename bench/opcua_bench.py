@@ -1,0 +1,244 @@
+"""The OPC UA face's figures (printed, never asserted): ``python -m bench.opcua_bench``.
+
+1. Latency to a subscriber (asyncua's client, SignAndEncrypt, publishing interval asked 0):
+   a. a change of a line's model -> the data change notification (the face's own share);
+   b. a position the poller read from the moving simulator -> the notification (the value's
+      source timestamp to its arrival: the face plus the subscription);
+   c. a speed change acknowledged by the simulator -> SpeedOverride's notification (the
+      poll the write triggers, the face and the subscription).
+2. Startup, each in a fresh process: cold (no certificate, no nodeset cache: the key is made
+   and the nodesets imported) and cached (both kept from the cold run).
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import json
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+from asyncua import Client
+from tests.serve_opcua.conftest import CLIENT_URI, PASSWORDS, Model, Setup
+
+from bench.measure import percentile
+from robostar.commands.control import SetSpeed
+from robostar.commands.motion import Home, Move
+from robostar.serve import LineConfig, LineServer, ServeConfig
+from robostar.serve.lease import Who
+from robostar.serve.users import Role, UserStore
+from robostar.types import CoordSystem, MotionType
+
+BENCH = Who("bench", "cli")
+
+
+def _setup(root: Path) -> Setup:
+    from asyncua.crypto.cert_gen import setup_self_signed_certificate
+    from cryptography.x509.oid import ExtendedKeyUsageOID
+
+    users = UserStore(root / "users.toml")
+    users.add("olga", Role.OPERATOR, PASSWORDS["olga"])
+    cert, key = root / "client-cert.der", root / "client-key.pem"
+    asyncio.run(
+        setup_self_signed_certificate(
+            key, cert, CLIENT_URI, "localhost", [ExtendedKeyUsageOID.CLIENT_AUTH], {}
+        )
+    )
+    return Setup(root / "users.toml", root / "state", root / "cache", cert, key)
+
+
+def _config(setup: Setup, poll: float, slow: float = 1.0) -> ServeConfig:
+    line = LineConfig("cell1", "sim://", poll_interval=poll, slow_interval=slow)
+    options = {
+        "listen": "127.0.0.1:0",
+        "users": str(setup.users),
+        "state_dir": str(setup.state),
+        "cache_dir": str(setup.cache),
+    }
+    return ServeConfig(lines=(line,), faces={"opcua": options})
+
+
+async def _client(server: LineServer, setup: Setup) -> Client:
+    face: Any = server.faces["opcua"]
+    client = Client(face.address, timeout=10)
+    client.application_uri = CLIENT_URI
+    await client.set_security_string(
+        f"Basic256Sha256,SignAndEncrypt,{setup.client_cert},{setup.client_key}"
+    )
+    client.set_user("olga")
+    client.set_password(PASSWORDS["olga"])
+    await client.connect()
+    return client
+
+
+class _Arrivals:
+    def __init__(self) -> None:
+        self.got: list[tuple[float, float, Any]] = []
+        """(perf_counter, time.time, DataValue) of each notification."""
+
+    def datachange_notification(self, node: Any, value: Any, data: Any) -> None:
+        self.got.append((time.perf_counter(), time.time(), data.monitored_item.Value))
+
+
+def _report(label: str, delays: list[float]) -> None:
+    p50, p99 = percentile(delays, 50) * 1e3, percentile(delays, 99) * 1e3
+    print(f"  {label:<44} p50 {p50:6.2f} ms   p99 {p99:6.2f} ms ({len(delays)})")
+
+
+async def model_to_subscriber(setup: Setup, n: int = 300) -> None:
+    # the poller reads the speed only every 100 s: the bench's values are not overwritten
+    async with LineServer(_config(setup, poll=100.0, slow=100.0)) as server:
+        client = await _client(server, setup)
+        try:
+            node = await Model(client).path(
+                "rob:MotionDevices", "rob:Channel1", "di:ParameterSet", "rob:SpeedOverride"
+            )
+            arrivals = _Arrivals()
+            subscription = await client.create_subscription(0, arrivals)
+            await subscription.subscribe_data_change(node, sampling_interval=0)
+            await asyncio.sleep(0.5)
+            model = server.line("cell1").model
+            delays = []
+            for k in range(1, n + 1):
+                count = len(arrivals.got)
+                sent = time.perf_counter()
+                model.set("ch1/speed", 10 * k)
+                while len(arrivals.got) == count:
+                    await asyncio.sleep(0.0005)
+                delays.append(arrivals.got[-1][0] - sent)
+            await subscription.delete()
+        finally:
+            await client.disconnect()
+    _report("model change -> notification", delays)
+
+
+async def moving_to_subscriber(setup: Setup, seconds: float = 10.0) -> None:
+    async with LineServer(_config(setup, poll=0.05)) as server:
+        line = server.line("cell1")
+        await line.execute(Home(1), who=BENCH, implicit_lease=True)
+        while not (s := line.model.get("ch1/status")) or not s.value.origin or s.value.running:
+            await asyncio.sleep(0.05)
+        client = await _client(server, setup)
+        try:
+            node = await Model(client).axis_position(1, 1)
+            arrivals = _Arrivals()
+            subscription = await client.create_subscription(0, arrivals)
+            await subscription.subscribe_data_change(node, sampling_interval=0)
+            end = time.monotonic() + seconds
+            targets = ((100.0, 60.0, 0.0, 0.0), (-100.0, -60.0, 0.0, 0.0))
+            k = 0
+            while time.monotonic() < end:
+                move = Move(1, MotionType.JOINT, CoordSystem.ANGLE, (targets[k % 2],))
+                await line.execute(move, who=BENCH, implicit_lease=True)
+                k += 1
+                await asyncio.sleep(0.2)
+                while (s := line.model.get("ch1/status")) and s.value.running:
+                    await asyncio.sleep(0.02)
+            await subscription.delete()
+            delays = [
+                wall - value.SourceTimestamp.timestamp()
+                for _, wall, value in arrivals.got[1:]
+                if value.SourceTimestamp is not None
+            ]
+            speeds = []
+            node_speed = await Model(client).path(
+                "rob:MotionDevices", "rob:Channel1", "di:ParameterSet", "rob:SpeedOverride"
+            )
+            arrivals = _Arrivals()
+            subscription = await client.create_subscription(0, arrivals)
+            await subscription.subscribe_data_change(node_speed, sampling_interval=0)
+            await asyncio.sleep(0.3)
+            for k in range(40):
+                count = len(arrivals.got)
+                await line.execute(SetSpeed(1, 100 + 10 * k), who=BENCH, implicit_lease=True)
+                done = time.perf_counter()
+                while len(arrivals.got) == count:
+                    await asyncio.sleep(0.0005)
+                speeds.append(arrivals.got[-1][0] - done)
+            await subscription.delete()
+        finally:
+            await client.disconnect()
+    _report("polled position (source time) -> notification", delays)
+    _report("speed write acknowledged -> notification", speeds)
+
+
+def startup(root: Path, runs: int = 3) -> None:
+    """Each start in a process of its own: imports, address space, certificate, nodes."""
+    for label, fresh in (("cold (new key, nodesets imported)", True), ("cached", False)):
+        faces, totals, loads, walls = [], [], [], []
+        for _ in range(runs):
+            state = root / "startup"
+            if fresh:
+                subprocess.run(["rm", "-rf", str(state)], check=True)
+            began = time.perf_counter()
+            out = subprocess.run(
+                [sys.executable, "-m", "bench.opcua_bench", "--startup-child", str(state)],
+                check=True,
+                capture_output=True,
+                text=True,
+            ).stdout
+            walls.append(time.perf_counter() - began)
+            figures = json.loads(out.strip().splitlines()[-1])
+            faces.append(figures["face"])
+            totals.append(figures["total"])
+            loads.append(figures["load"])
+        print(
+            f"  startup {label:<36} face {min(faces):5.2f} s (address space"
+            f" {min(loads):4.2f} s), serve() to ready {min(totals):5.2f} s, whole process"
+            f" {min(walls):5.2f} s (best of {runs})"
+        )
+
+
+def _startup_child(state: Path) -> None:
+    began = time.perf_counter()
+    state.mkdir(parents=True, exist_ok=True)
+    users = UserStore(state / "users.toml")
+    if users.get("olga") is None:
+        users.add("olga", Role.OPERATOR, PASSWORDS["olga"])
+    options = {
+        "listen": "127.0.0.1:0",
+        "users": str(state / "users.toml"),
+        "state_dir": str(state / "pki"),
+        "cache_dir": str(state / "cache"),
+    }
+    config = ServeConfig(
+        lines=(LineConfig("cell1", "sim://", poll_interval=1.0),), faces={"opcua": options}
+    )
+
+    async def run() -> dict[str, Any]:
+        async with LineServer(config) as server:
+            face: Any = server.faces["opcua"]
+            return {
+                "face": face.startup_seconds,
+                "load": face.load.seconds,
+                "cached": face.load.cached,
+                "total": time.perf_counter() - began,
+            }
+
+    print(json.dumps(asyncio.run(run())))
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--startup-child", type=Path)
+    parser.add_argument("--quick", action="store_true")
+    args = parser.parse_args()
+    if args.startup_child is not None:
+        _startup_child(args.startup_child)
+        return 0
+    with tempfile.TemporaryDirectory() as folder:
+        root = Path(folder)
+        setup = _setup(root)
+        print("OPC UA face (asyncua client, Basic256Sha256 SignAndEncrypt, 2 shared cores):")
+        asyncio.run(model_to_subscriber(setup, n=100 if args.quick else 300))
+        asyncio.run(moving_to_subscriber(setup, seconds=4.0 if args.quick else 10.0))
+        startup(root, runs=1 if args.quick else 3)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
