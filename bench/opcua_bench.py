@@ -95,7 +95,7 @@ async def model_to_subscriber(setup: Setup, n: int = 300) -> None:
         client = await _client(server, setup)
         try:
             node = await Model(client).path(
-                "rob:MotionDevices", "rob:Channel1", "di:ParameterSet", "rob:SpeedOverride"
+                "rob:MotionDevices", "ven:Channel1", "di:ParameterSet", "rob:SpeedOverride"
             )
             arrivals = _Arrivals()
             subscription = await client.create_subscription(0, arrivals)
@@ -146,7 +146,7 @@ async def moving_to_subscriber(setup: Setup, seconds: float = 10.0) -> None:
             ]
             speeds = []
             node_speed = await Model(client).path(
-                "rob:MotionDevices", "rob:Channel1", "di:ParameterSet", "rob:SpeedOverride"
+                "rob:MotionDevices", "ven:Channel1", "di:ParameterSet", "rob:SpeedOverride"
             )
             arrivals = _Arrivals()
             subscription = await client.create_subscription(0, arrivals)

@@ -141,9 +141,9 @@ class Model:
     async def axis_position(self, channel: int, axis: int) -> Node:
         return await self.path(
             "rob:MotionDevices",
-            f"rob:Channel{channel}",
+            f"ven:Channel{channel}",
             "rob:Axes",
-            f"rob:Axis{axis}",
+            f"ven:Axis{axis}",
             "di:ParameterSet",
             "rob:ActualPosition",
         )
@@ -151,9 +151,9 @@ class Model:
     async def state_machine(self, channel: int) -> Node:
         return await self.path(
             "rob:Controllers",
-            "rob:cell1",
+            "ven:cell1",
             "rob:TaskControls",
-            f"rob:Channel{channel}",
+            f"ven:Channel{channel}",
             "rob:TaskControlOperation",
             "rob:TaskControlStateMachine",
         )

@@ -15,6 +15,7 @@ from asyncua.common.subscription import DataChangeNotif
 from robostar.commands.control import ResetAlarms, SetSpeed
 from robostar.commands.motion import Home, Move
 from robostar.commands.status import ReadPosition
+from robostar.commands.variables import WriteGlobalFloat, WriteGlobalInt
 from robostar.errors import UsageError
 from robostar.serve.faces.opcua import settings_from
 from robostar.serve.lease import Who
@@ -71,15 +72,15 @@ def test_the_robotics_structure_by_browse_names(opcua_setup: Setup) -> None:
             assert {"MotionDevices", "Controllers", "SafetyStates"} <= names
             # no placeholder of the type is left in the instance
             assert not any(name.startswith("<") for name in names)
-            device = await model.path("rob:MotionDevices", "rob:Channel1")
+            device = await model.path("rob:MotionDevices", "ven:Channel1")
             assert await device.read_type_definition() == ua.NodeId(1004, rob)
-            maker = await model.path("rob:MotionDevices", "rob:Channel1", "di:Manufacturer")
+            maker = await model.path("rob:MotionDevices", "ven:Channel1", "di:Manufacturer")
             assert (await maker.read_value()).Text == "Robostar"
             category = await model.path(
-                "rob:MotionDevices", "rob:Channel1", "rob:MotionDeviceCategory"
+                "rob:MotionDevices", "ven:Channel1", "rob:MotionDeviceCategory"
             )
             assert await category.read_value() == 2  # SCARA_ROBOT: the simulator's channel 1
-            axes = await model.path("rob:MotionDevices", "rob:Channel1", "rob:Axes")
+            axes = await model.path("rob:MotionDevices", "ven:Channel1", "rob:Axes")
             axis_names = sorted(
                 [(await a.read_browse_name()).Name for a in await axes.get_children()]
             )
@@ -88,9 +89,9 @@ def test_the_robotics_structure_by_browse_names(opcua_setup: Setup) -> None:
             for axis in (1, 3):
                 node = await model.path(
                     "rob:MotionDevices",
-                    "rob:Channel1",
+                    "ven:Channel1",
                     "rob:Axes",
-                    f"rob:Axis{axis}",
+                    f"ven:Axis{axis}",
                     "rob:MotionProfile",
                 )
                 profiles.append(await node.read_value())
@@ -98,23 +99,23 @@ def test_the_robotics_structure_by_browse_names(opcua_setup: Setup) -> None:
             units = await (await model.axis_position(1, 3)).get_child(["0:EngineeringUnits"])
             assert (await units.read_value()).DisplayName.Text == "mm"
             speed = await model.path(
-                "rob:MotionDevices", "rob:Channel1", "di:ParameterSet", "rob:SpeedOverride"
+                "rob:MotionDevices", "ven:Channel1", "di:ParameterSet", "rob:SpeedOverride"
             )
             assert isinstance(await speed.read_value(), float)
             in_control = await model.path(
-                "rob:MotionDevices", "rob:Channel1", "di:ParameterSet", "rob:InControl"
+                "rob:MotionDevices", "ven:Channel1", "di:ParameterSet", "rob:InControl"
             )
             assert await in_control.read_value() in (True, False)
-            task = await model.path("rob:Controllers", "rob:cell1", "rob:TaskControls")
+            task = await model.path("rob:Controllers", "ven:cell1", "rob:TaskControls")
             assert [(await t.read_browse_name()).Name for t in await task.get_children()] == [
                 "Channel1",
                 "Channel2",
             ]
             program = await model.path(
                 "rob:Controllers",
-                "rob:cell1",
+                "ven:cell1",
                 "rob:TaskControls",
-                "rob:Channel1",
+                "ven:Channel1",
                 "di:ParameterSet",
                 "rob:TaskProgramName",
             )
@@ -123,21 +124,21 @@ def test_the_robotics_structure_by_browse_names(opcua_setup: Setup) -> None:
             methods = {(await m.read_browse_name()).Name for m in await machine.get_methods()}
             assert {"Start", "Stop", "LoadByName"} <= methods
             estop = await model.path(
-                "rob:SafetyStates", "rob:cell1", "di:ParameterSet", "rob:EmergencyStop"
+                "rob:SafetyStates", "ven:cell1", "di:ParameterSet", "rob:EmergencyStop"
             )
             assert await estop.read_value() is False
-            safety = await model.path("rob:SafetyStates", "rob:cell1")
+            safety = await model.path("rob:SafetyStates", "ven:cell1")
             assert "Informational" in (await safety.read_description()).Text
             firmware = await model.path(
                 "rob:Controllers",
-                "rob:cell1",
+                "ven:cell1",
                 "rob:Software",
-                "rob:Firmware",
+                "ven:Firmware",
                 "di:SoftwareRevision",
             )
             assert await firmware.read_value() == server.line("cell1").info.version
             origin = await model.path(
-                "rob:MotionDevices", "rob:Channel1", "ven:Robostar", "ven:OriginDone"
+                "rob:MotionDevices", "ven:Channel1", "ven:Robostar", "ven:OriginDone"
             )
             assert await origin.read_value() is False
 
@@ -204,7 +205,7 @@ def test_a_subscriber_receives_changes(opcua_setup: Setup) -> None:
         async with serving(opcua_setup) as server, connect(server, opcua_setup) as client:
             model = Model(client)
             speed = await model.path(
-                "rob:MotionDevices", "rob:Channel1", "di:ParameterSet", "rob:SpeedOverride"
+                "rob:MotionDevices", "ven:Channel1", "di:ParameterSet", "rob:SpeedOverride"
             )
             handler = Changes()
             subscription = await client.create_subscription(20, handler)
@@ -244,6 +245,30 @@ def test_values_carry_the_models_quality(opcua_setup: Setup) -> None:
     run(main())
 
 
+def test_configured_global_variables_are_read(opcua_setup: Setup) -> None:
+    async def main() -> None:
+        options = {"globals": {"int": [0, 3], "float": [1]}, "globals_interval": 0.1}
+        async with (
+            serving(opcua_setup, **options) as server,
+            connect(server, opcua_setup) as client,
+        ):
+            line = server.line("cell1")
+            await line.execute(WriteGlobalInt(3, 42), who=TESTER, implicit_lease=True)
+            await line.execute(WriteGlobalFloat(1, -2.5), who=TESTER, implicit_lease=True)
+            model = Model(client)
+            folder = ("rob:Controllers", "ven:cell1", "ven:Robostar")
+            int3 = await model.path(*folder, "ven:GlobalInt3")
+            float1 = await model.path(*folder, "ven:GlobalFloat1")
+
+            async def written() -> bool:
+                return await int3.read_value() == 42 and await float1.read_value() == -2.5
+
+            await until(written, what="the globals read back")
+            assert (await int3.read_data_value()).StatusCode.is_good()
+
+    run(main())
+
+
 # -- alarms and methods ----------------------------------------------------------------------
 def test_emergency_stop_raises_an_alarm_event_and_reset_clears_it(opcua_setup: Setup) -> None:
     async def main() -> None:
@@ -257,7 +282,7 @@ def test_emergency_stop_raises_an_alarm_event_and_reset_clears_it(opcua_setup: S
             handler = Changes()
             subscription = await client.create_subscription(20, handler)
             await subscription.subscribe_events(system, event_type)
-            controller = await model.path("rob:Controllers", "rob:cell1", "ven:Robostar")
+            controller = await model.path("rob:Controllers", "ven:cell1", "ven:Robostar")
             result = await controller.call_method(f"{vendor}:EmergencyStop")
             assert result == 0
 
@@ -269,10 +294,10 @@ def test_emergency_stop_raises_an_alarm_event_and_reset_clears_it(opcua_setup: S
             assert event.AlarmCode == 9001 and "Emergency" in event.AlarmText
             assert event.Line == "cell1" and event.Severity >= 700
             estop = await model.path(
-                "rob:SafetyStates", "rob:cell1", "di:ParameterSet", "rob:EmergencyStop"
+                "rob:SafetyStates", "ven:cell1", "di:ParameterSet", "rob:EmergencyStop"
             )
             await until(estop.read_value, what="SafetyStates EmergencyStop true")
-            alarms = await model.path("rob:Controllers", "rob:cell1", "ven:Robostar", "ven:Alarms")
+            alarms = await model.path("rob:Controllers", "ven:cell1", "ven:Robostar", "ven:Alarms")
             assert any("9001" in text for text in await alarms.read_value())
             line = server.line("cell1")
             await line.execute(ResetAlarms(), who=TESTER, implicit_lease=True)
@@ -322,9 +347,9 @@ def test_start_and_stop_need_the_operator_role(opcua_setup: Setup) -> None:
                 assert await machine.call_method(f"{rob}:LoadByName", "DEMO.JOB") == 0
                 program = await model.path(
                     "rob:Controllers",
-                    "rob:cell1",
+                    "ven:cell1",
                     "rob:TaskControls",
-                    "rob:Channel1",
+                    "ven:Channel1",
                     "di:ParameterSet",
                     "rob:TaskProgramName",
                 )
@@ -372,7 +397,7 @@ def test_an_active_alarm_refuses_start_without_sending(opcua_setup: Setup) -> No
         async with serving(opcua_setup) as server, connect(server, opcua_setup) as client:
             model = Model(client)
             _, rob, vendor = await model.ns()
-            controller = await model.path("rob:Controllers", "rob:cell1", "ven:Robostar")
+            controller = await model.path("rob:Controllers", "ven:cell1", "ven:Robostar")
             await controller.call_method(f"{vendor}:EmergencyStop")
             line = server.line("cell1")
 
@@ -453,7 +478,7 @@ def test_anonymous_read_opens_a_read_only_unsigned_endpoint(opcua_setup: Setup) 
             async with connect(server, opcua_setup, "olga", mode="None_") as operator:
                 model = Model(operator)
                 _, _, vendor = await model.ns()
-                controller = await model.path("rob:Controllers", "rob:cell1", "ven:Robostar")
+                controller = await model.path("rob:Controllers", "ven:cell1", "ven:Robostar")
                 with pytest.raises(ua.UaStatusCodeError) as refused:
                     await controller.call_method(f"{vendor}:EmergencyStop")
                 assert refused.value.code == ua.StatusCodes.BadUserAccessDenied
@@ -475,6 +500,10 @@ def test_settings_are_checked(tmp_path: Any) -> None:
         settings_from({"listen": "127.0.0.1:4840"})
     with pytest.raises(UsageError, match=r"opcua\.colour: unknown option"):
         settings_from({"users": users, "colour": "blue"})
+    with pytest.raises(UsageError, match=r"opcua\.globals\.int"):
+        settings_from({"users": users, "globals": {"int": [100000]}})
+    with pytest.raises(UsageError, match=r"opcua\.globals:"):
+        settings_from({"users": users, "globals": {"points": [1]}})
     with pytest.raises(UsageError, match="allow_anonymous_read"):
         settings_from({"users": users, "allow_anonymous_read": "yes"})
 
@@ -490,7 +519,7 @@ def test_the_imported_nodesets_are_cached_for_the_next_start(
             face: Any = server.faces["opcua"]
             async with connect(server, opcua_setup) as client:
                 namespaces = await client.get_namespace_array()
-                axes = await Model(client).path("rob:MotionDevices", "rob:Channel1", "rob:Axes")
+                axes = await Model(client).path("rob:MotionDevices", "ven:Channel1", "rob:Axes")
                 count = len(await axes.get_children())
                 # a Robotics type browses the same either way
                 types = await client.nodes.base_object_type.get_children()

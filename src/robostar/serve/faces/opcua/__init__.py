@@ -26,6 +26,9 @@ from asyncua import ua
 from asyncua.server.event_generator import EventGenerator
 from asyncua.server.server import Server
 
+from robostar.commands.base import Command
+from robostar.commands.variables import ReadGlobalFloat, ReadGlobalInt
+from robostar.errors import RobostarError
 from robostar.serve.faces.opcua._ua import ObjectIds
 from robostar.serve.faces.opcua.address_space import (
     DeviceNodes,
@@ -38,6 +41,7 @@ from robostar.serve.faces.opcua.nodesets import CachedInternalServer, LoadReport
 from robostar.serve.faces.opcua.publisher import ALARM_EVENT_FIELDS, LinePublisher
 from robostar.serve.faces.opcua.security import RoleRuleset, UsersManager, ensure_certificate
 from robostar.serve.faces.opcua.settings import OpcUaSettings, settings_from
+from robostar.serve.model import Sample
 from robostar.serve.users import UserStore
 
 if TYPE_CHECKING:
@@ -124,6 +128,9 @@ class OpcUaFace:
         for line in self.server.lines.values():
             task = asyncio.create_task(self._pump(line), name=f"opcua {line.name}")
             self.tasks.add(task)
+            if s.global_ints or s.global_floats:
+                reader = asyncio.create_task(self._read_globals(line), name=f"opcua {line.name} GR")
+                self.tasks.add(reader)
         self.startup_seconds = time.perf_counter() - started
         log.info(
             "opcua face: %s, %d line(s), started in %.2f s (address space %s in %.2f s)",
@@ -152,6 +159,8 @@ class OpcUaFace:
             line.channels(),
             line.config.io_ports,
             dict(line.config.channels),
+            self.settings.global_ints,
+            self.settings.global_floats,
         )
         self.devices[line.name] = nodes
         for name, node in nodes.methods.items():
@@ -185,6 +194,29 @@ class OpcUaFace:
                     await publisher.apply(change.key, change.sample)
                 except Exception:  # one bad value must not stop the line's updates
                     log.exception("opcua %s: cannot show %s", line.name, change.key)
+
+    async def _read_globals(self, line: Line) -> None:
+        """The configured global variables, read through the line's queue (after the
+        consumers' reads, like any read) every ``globals_interval``; a failed read leaves the
+        value with the status of a stale one."""
+        s = self.settings
+        commands: list[tuple[str, Command[Any]]] = [
+            *((f"global/int/{i}", ReadGlobalInt(i)) for i in s.global_ints),
+            *((f"global/float/{i}", ReadGlobalFloat(i)) for i in s.global_floats),
+        ]
+        while True:
+            for key, command in commands:
+                publisher = self.publishers.get(line.name)
+                try:
+                    value = await line.read(command, max_age=0)
+                except RobostarError as exc:
+                    log.debug("opcua %s: %s not read: %s", line.name, key, exc)
+                    if publisher is not None:
+                        await publisher.stale(key)
+                    continue
+                if publisher is not None:
+                    await publisher.apply(key, Sample(value, time.time()))
+            await asyncio.sleep(s.globals_interval)
 
     async def stop(self) -> None:
         for task in list(self.tasks):

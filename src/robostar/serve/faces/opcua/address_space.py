@@ -20,6 +20,11 @@ The type instances are made by asyncua from the imported types (mandatory childr
 asyncua also makes the types' placeholder children (``<AxisIdentifier>`` ...) literally, so
 they are removed and the real ones added. Optional children the N1 can fill are added by hand
 with the spec's browse names.
+
+Names: a name the spec defines keeps the spec's namespace (``Robotics:MotionDevices``,
+``DI:ParameterSet``, ``Robotics:ActualPosition``); a name this server chooses for an instance
+(the line, ``Channel1``, ``Axis1``, ``Firmware``) and everything vendor-specific is in the
+robostar namespace ``urn:robostar:n1``.
 """
 
 from __future__ import annotations
@@ -243,6 +248,8 @@ async def build_line(
     channels: Sequence[int],
     io_ports: Sequence[int],
     labels: dict[int, str],
+    global_ints: Sequence[int] = (),
+    global_floats: Sequence[int] = (),
 ) -> DeviceNodes:
     """Make the nodes of one line under DeviceSet; the values start empty with status
     ``BadWaitingForInitialData`` until the line's model fills them."""
@@ -254,7 +261,7 @@ async def build_line(
     # -- the controller ------------------------------------------------------------------
     controllers = await b.child(system, b.rob("Controllers"))
     controller = await b.instance(
-        controllers, f"{line}.Controller", b.rob(f"{line}"), CONTROLLER_TYPE
+        controllers, f"{line}.Controller", b.vendor(line), CONTROLLER_TYPE
     )
     nodes.controller = controller
     model = info.name if info is not None else "N1"
@@ -262,7 +269,7 @@ async def build_line(
     software_folder = await b.child(controller, b.rob("Software"))
     software = await software_folder.add_object(
         b.nodeid(f"{line}.Controller.Software.Firmware"),
-        b.rob("Firmware"),
+        b.vendor("Firmware"),
         objecttype=node_id(15106, ns.di),  # DI SoftwareType
         instantiate_optional=False,
     )
@@ -309,6 +316,24 @@ async def build_line(
                 ua.VariantType.Boolean,
                 description=f"The 16 contacts of I/O port {port} ({label.lower()}).",
             )
+    for index in global_ints:
+        nodes.values[f"global/int/{index}"] = await b.variable(
+            vendor,
+            f"{line}.GlobalInt{index}",
+            b.vendor(f"GlobalInt{index}"),
+            0,
+            ua.VariantType.Int32,
+            description=f"Global integer variable {index} (GR).",
+        )
+    for index in global_floats:
+        nodes.values[f"global/float/{index}"] = await b.variable(
+            vendor,
+            f"{line}.GlobalFloat{index}",
+            b.vendor(f"GlobalFloat{index}"),
+            0.0,
+            ua.VariantType.Double,
+            description=f"Global float variable {index} (GR).",
+        )
     nodes.methods["EmergencyStop"] = await vendor.add_method(
         b.nodeid(f"{line}.EmergencyStop"),
         b.vendor("EmergencyStop"),
@@ -319,7 +344,7 @@ async def build_line(
 
     # -- the safety state: informational only, as the spec says ---------------------------
     safety_folder = await b.child(system, b.rob("SafetyStates"))
-    safety = await b.instance(safety_folder, f"{line}.Safety", b.rob(line), SAFETY_STATE_TYPE)
+    safety = await b.instance(safety_folder, f"{line}.Safety", b.vendor(line), SAFETY_STATE_TYPE)
     nodes.safety = safety
     await safety.write_attribute(
         AttributeIds.Description,
@@ -368,7 +393,7 @@ async def _build_channel(
 ) -> ChannelNodes:
     line = b.line
     base = f"{line}.ch{channel}"
-    device = await b.instance(devices, f"{base}.Device", b.rob(label), MOTION_DEVICE_TYPE)
+    device = await b.instance(devices, f"{base}.Device", b.vendor(label), MOTION_DEVICE_TYPE)
     await _identity(
         device,
         b,
@@ -381,7 +406,7 @@ async def _build_channel(
     params = await b.child(device, b.di("ParameterSet"))
 
     # TaskControl (made before the device refers to it)
-    task = await b.instance(task_controls, f"{base}.Task", b.rob(label), TASK_CONTROL_TYPE)
+    task = await b.instance(task_controls, f"{base}.Task", b.vendor(label), TASK_CONTROL_TYPE)
     name_node = await _maybe_child(task, b.di("ComponentName"))
     if name_node is not None:
         await name_node.write_value(ua.LocalizedText(label))
@@ -438,7 +463,7 @@ async def _build_channel(
     axes_in_use = info.axes_in_use if info is not None else ()
     for index, axis in enumerate(axes_in_use):
         axis_node = await b.instance(
-            axes_folder, f"{base}.Axis{axis}", b.rob(f"Axis{axis}"), AXIS_TYPE
+            axes_folder, f"{base}.Axis{axis}", b.vendor(f"Axis{axis}"), AXIS_TYPE
         )
         profile = axis_profile(robot, axis)
         await _set(await b.child(axis_node, b.rob("MotionProfile")), profile, ua.VariantType.Int32)

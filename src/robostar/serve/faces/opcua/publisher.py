@@ -13,6 +13,7 @@ from __future__ import annotations
 import datetime as dt
 import logging
 from collections.abc import Iterable
+from dataclasses import replace
 from typing import Any
 
 from asyncua import ua
@@ -81,6 +82,7 @@ class LinePublisher:
         self._running: dict[int, bool] = {}
         self.writes = 0
         self.events_sent = 0
+        self._globals: dict[str, Sample] = {}
 
     # -- writing -----------------------------------------------------------------------------
     async def _write(
@@ -134,11 +136,25 @@ class LinePublisher:
         elif key == "alarm_history":
             texts = [f"{r.code:04d} : {r.text} ({r.detail})".rstrip() for r in value]
             await self._write(nodes.values["alarm_history"], texts, ua.VariantType.String, sample)
+        elif key.startswith("global/"):
+            node = nodes.values.get(key)
+            self._globals[key] = sample
+            if node is not None:
+                if key.startswith("global/int/"):
+                    await self._write(node, int(value), ua.VariantType.Int32, sample)
+                else:
+                    await self._write(node, float(value), ua.VariantType.Double, sample)
         elif key.startswith("io/"):
             node = nodes.values.get(key)
             if node is not None:
                 contacts = list(value.contacts)
                 await self._write(node, contacts, ua.VariantType.Boolean, sample)
+
+    async def stale(self, key: str) -> None:
+        """A global variable could not be read: its last value stays, marked uncertain."""
+        last = self._globals.get(key)
+        if last is not None and last.quality is Quality.GOOD:
+            await self.apply(key, replace(last, quality=Quality.STALE))
 
     async def _channel(self, ch: ChannelNodes, what: str, value: Any, sample: Sample) -> None:
         v = ch.values

@@ -10,6 +10,7 @@ from typing import Any
 
 import platformdirs
 
+from robostar.commands.variables import ReadGlobalFloat, ReadGlobalInt
 from robostar.errors import UsageError
 from robostar.serving import is_loopback, parse_listen
 
@@ -26,6 +27,8 @@ _OPTIONS = frozenset(
         "cache_dir",
         "application_uri",
         "hostname",
+        "globals",
+        "globals_interval",
     )
 )
 
@@ -44,6 +47,10 @@ class OpcUaSettings:
     application_uri: str
     hostname: str
     """The host name in the certificate and the endpoint URL clients are told."""
+    global_ints: tuple[int, ...] = ()
+    global_floats: tuple[int, ...] = ()
+    """The global variables the face reads (GR) for every line; the line server polls none."""
+    globals_interval: float = 1.0
 
     @property
     def endpoint(self) -> str:
@@ -96,6 +103,10 @@ def settings_from(options: Mapping[str, Any]) -> OpcUaSettings:
         cache_dir = Path(str(cache))
     else:
         cache_dir = Path(platformdirs.user_cache_dir("robostar")) / "opcua"
+    global_ints, global_floats = _globals(options.get("globals", {}))
+    interval = options.get("globals_interval", 1.0)
+    if isinstance(interval, bool) or not isinstance(interval, int | float) or interval < 0.1:
+        raise UsageError(f"opcua.globals_interval: {interval!r} is not 0.1 s or more")
     hostname = str(options.get("hostname") or socket.gethostname())
     uri = str(options.get("application_uri") or f"urn:{hostname}:robostar:serve")
     return OpcUaSettings(
@@ -107,4 +118,27 @@ def settings_from(options: Mapping[str, Any]) -> OpcUaSettings:
         cache_dir=cache_dir,
         application_uri=uri,
         hostname=hostname,
+        global_ints=global_ints,
+        global_floats=global_floats,
+        globals_interval=float(interval),
     )
+
+
+def _globals(table: Any) -> tuple[tuple[int, ...], tuple[int, ...]]:
+    """``{int = [0, 1], float = [0]}``: indices checked as GR would check them."""
+    if not isinstance(table, Mapping) or set(table) - {"int", "float"}:
+        raise UsageError("opcua.globals: expected a table with int = [...] and float = [...]")
+    chosen: dict[str, tuple[int, ...]] = {}
+    for kind, command in (("int", ReadGlobalInt), ("float", ReadGlobalFloat)):
+        indices = table.get(kind, [])
+        if isinstance(indices, str) or not all(
+            isinstance(i, int) and not isinstance(i, bool) for i in indices
+        ):
+            raise UsageError(f"opcua.globals.{kind}: {indices!r} is not a list of indices")
+        for index in indices:
+            try:
+                command(index).encode()
+            except UsageError as exc:
+                raise UsageError(f"opcua.globals.{kind}: {exc}") from None
+        chosen[kind] = tuple(sorted(set(indices)))
+    return chosen["int"], chosen["float"]
