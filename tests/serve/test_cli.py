@@ -72,6 +72,11 @@ def test_a_bad_config_names_the_key(tmp_path: Path, text: str, key: str) -> None
         ('[lines.cell1]\nurl = "sim://"\n[mqtt]\nurl = "mqtt://h"\nqos = 5\n', "mqtt.qos"),
         ('[lines.cell1]\nurl = "sim://"\n[mqtt]\nurl = "ftp://h"\n', "mqtt.url"),
         ('[lines.cell1]\nurl = "sim://"\n[n1.lines]\ncell9 = "127.0.0.1:0"\n', "n1.lines.cell9"),
+        ('[lines.cell1]\nurl = "sim://"\n[opcua]\nlisten = "127.0.0.1:4840"\n', "opcua.users"),
+        (
+            '[lines.cell1]\nurl = "sim://"\n[opcua]\nusers = "u.toml"\nglobals = { x = [1] }\n',
+            "opcua.globals",
+        ),
     ],
 )
 def test_check_also_checks_each_faces_options(tmp_path: Path, text: str, key: str) -> None:
@@ -90,6 +95,8 @@ def test_bad_command_line_is_refused_before_anything_opens() -> None:
     assert result.exit_code != 0 and "--line" in result.output
     result = runner.invoke(cli, ["serve", "--line", "a=sim://", "--allow-remote"])
     assert result.exit_code != 0 and "--token" in result.output
+    result = runner.invoke(cli, ["serve", "--line", "a=sim://", "--opcua-allow-anonymous-read"])
+    assert result.exit_code != 0 and "needs --opcua" in result.output
 
 
 def _free_port() -> int:
