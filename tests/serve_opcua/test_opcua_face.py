@@ -276,8 +276,8 @@ def test_emergency_stop_raises_an_alarm_event_and_reset_clears_it(opcua_setup: S
             model = Model(client)
             _, _, vendor = await model.ns()
             system = await model.system()
-            event_type = await client.nodes.base_event_type.get_child(
-                [f"{vendor}:N1AlarmEventType"]
+            event_type = await client.get_node(ua.ObjectIds.AlarmConditionType).get_child(
+                [f"{vendor}:N1AlarmConditionType"]
             )
             handler = Changes()
             subscription = await client.create_subscription(20, handler)
@@ -293,6 +293,21 @@ def test_emergency_stop_raises_an_alarm_event_and_reset_clears_it(opcua_setup: S
             event = next(e for e in handler.events if e.Active)
             assert event.AlarmCode == 9001 and "Emergency" in event.AlarmText
             assert event.Line == "cell1" and event.Severity >= 700
+            assert event.Retain is True and event.ConditionName == "9001"
+            # a client that comes later asks for the active conditions (ConditionRefresh)
+            late = Changes()
+            late_sub = await client.create_subscription(20, late)
+            await late_sub.subscribe_alarms_and_conditions(system, event_type)
+            await client.get_node(ua.ObjectIds.ConditionType).call_method(
+                ua.NodeId(ua.ObjectIds.ConditionType_ConditionRefresh),
+                ua.Variant(late_sub.subscription_id, ua.VariantType.UInt32),
+            )
+
+            async def refreshed() -> bool:
+                return any(getattr(e, "AlarmCode", None) == 9001 for e in late.events)
+
+            await until(refreshed, what="the active alarm replayed by ConditionRefresh")
+            await late_sub.delete()
             estop = await model.path(
                 "rob:SafetyStates", "ven:cell1", "di:ParameterSet", "rob:EmergencyStop"
             )

@@ -87,6 +87,7 @@ class OpcUaFace:
         s = self.settings
         manager = UsersManager(self.users, allow_anonymous=s.allow_anonymous_read)
         iserver = CachedInternalServer(s.cache_dir, user_manager=manager)
+        iserver.bind_condition_methods = True  # ConditionRefresh replays the active alarms
         server = Server(iserver=iserver)
         space_started = time.perf_counter()
         await server.init()
@@ -116,8 +117,8 @@ class OpcUaFace:
         self.ns = await namespaces(server)
         event_type = await server.create_custom_event_type(
             self.ns.vendor,
-            "N1AlarmEventType",
-            ObjectIds.BaseEventType,
+            "N1AlarmConditionType",
+            ObjectIds.AlarmConditionType,
             [(name, variant) for name, variant in ALARM_EVENT_FIELDS],
         )
         self._event_type = event_type.nodeid
@@ -171,7 +172,7 @@ class OpcUaFace:
                     self.ua.link_method(node, handler_for(line, key[7:], channel))
         events = EventGenerator(self.ua.iserver.isession)
         await events.init(self._event_type, emitting_node=nodes.system.nodeid)
-        publisher = LinePublisher(self.ua, nodes, events, self.ns.robotics)
+        publisher = LinePublisher(self.ua, nodes, events, self.ns.robotics, self.ns.vendor)
         await publisher.waiting()
         self.publishers[line.name] = publisher
 

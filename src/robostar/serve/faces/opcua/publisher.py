@@ -4,8 +4,8 @@ Each change of the line's model (``ControllerModel``) becomes writes of the vari
 it, with the time the value was read as the source timestamp and the model's quality as the
 status code: ``Good``; ``UncertainLastUsableValue`` when a poll failed and nobody can vouch for
 the value; ``BadCommunicationError`` while the line is down. A new alarm raises an
-``N1AlarmEventType`` event with the controller's code and text (``Active`` true), a cleared one
-another (``Active`` false).
+``N1AlarmConditionType`` event (an AlarmConditionType) with the controller's code and text
+(``Active`` true, retained), a cleared one another (``Active`` false, not retained).
 """
 
 from __future__ import annotations
@@ -46,7 +46,7 @@ ALARM_EVENT_FIELDS = (
     ("Line", ua.VariantType.String),
     ("Active", ua.VariantType.Boolean),
 )
-"""The properties of the vendor event type N1AlarmEventType (a BaseEventType)."""
+"""The vendor fields of N1AlarmConditionType (an AlarmConditionType)."""
 
 _STATUS = {
     Quality.GOOD: status(StatusCodes.Good),
@@ -71,12 +71,18 @@ class LinePublisher:
     """Writes one line's model changes into its nodes (see the module docstring)."""
 
     def __init__(
-        self, server: Server, nodes: DeviceNodes, events: EventGenerator, robotics_ns: int
+        self,
+        server: Server,
+        nodes: DeviceNodes,
+        events: EventGenerator,
+        robotics_ns: int,
+        vendor_ns: int,
     ) -> None:
         self.server = server
         self.nodes = nodes
         self.events = events
         self.robotics_ns = robotics_ns
+        self.vendor_ns = vendor_ns
         self._alarms: dict[int, Alarm] | None = None
         self._jobs: dict[int, bool] = {}
         self._running: dict[int, bool] = {}
@@ -230,19 +236,34 @@ class LinePublisher:
             await self._event(alarm, active=False)
 
     async def _event(self, alarm: Alarm, *, active: bool) -> None:
+        """One event of N1AlarmConditionType: an AlarmConditionType (its condition id per line
+        and code, retained while active so that ConditionRefresh replays it) with the N1's
+        code and text in fields of their own."""
         event: BaseEvent = self.events.event
-        fields = {
+        line = self.nodes.line
+        state = ua.LocalizedText("Active" if active else "Inactive")
+        fields: dict[str, Any] = {
             "AlarmCode": alarm.code,
             "AlarmText": alarm.text,
-            "Line": self.nodes.line,
+            "Line": line,
             "Active": active,
             "Severity": (900 if is_emergency(alarm) else 700) if active else 100,
-            "SourceName": self.nodes.line,
+            "SourceName": line,
+            "NodeId": node_id(f"{line}.Alarm.{alarm.code}", self.vendor_ns),
+            "ConditionName": f"{alarm.code:04d}",
+            "Retain": active,
+            "ActiveState": state,
+            "ActiveState/Id": active,
+            "EnabledState": ua.LocalizedText("Enabled"),
+            "EnabledState/Id": True,
+            # the N1 has no acknowledgement: its alarms are reset (CE), never acknowledged
+            "AckedState": ua.LocalizedText("Acknowledged"),
+            "AckedState/Id": True,
         }
         for name, value in fields.items():  # the event type's own fields, set by name
             setattr(event, name, value)
         verb = "alarm" if active else "alarm cleared"
-        await self.events.trigger(message=f"{self.nodes.line}: {verb} {alarm}")
+        await self.events.trigger(message=f"{line}: {verb} {alarm}")
         self.events_sent += 1
 
 
