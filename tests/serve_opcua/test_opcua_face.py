@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import asyncio
 import json
+import socket
 from typing import Any
 
 import pytest
@@ -20,6 +21,8 @@ from robostar.errors import UsageError
 from robostar.serve.faces.opcua import settings_from
 from robostar.serve.lease import Who
 from robostar.serve.model import Quality
+from robostar.sim import SimConfig, VirtualController
+from robostar.sim.server import SimServer
 from robostar.types import CoordSystem, MotionType, PositionKind
 
 from .conftest import Model, Setup, connect, serving, until
@@ -265,6 +268,41 @@ def test_configured_global_variables_are_read(opcua_setup: Setup) -> None:
 
             await until(written, what="the globals read back")
             assert (await int3.read_data_value()).StatusCode.is_good()
+
+    run(main())
+
+
+def test_a_line_down_at_start_is_built_again_when_it_comes_up(opcua_setup: Setup) -> None:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+
+    async def main() -> None:
+        url = f"tcp://127.0.0.1:{port}"
+        async with serving(opcua_setup, url=url) as server, connect(server, opcua_setup) as client:
+            model = Model(client)
+            online = await model.path("rob:Controllers", "ven:cell1", "ven:Robostar", "ven:Online")
+            assert await online.read_value() is False
+            axes = await model.path("rob:MotionDevices", "ven:Channel1", "rob:Axes")
+            assert await axes.get_children() == []  # nothing known of the robot yet
+            sim = SimServer(VirtualController(SimConfig()), port=port).start()
+            try:
+
+                async def rebuilt() -> bool:
+                    try:
+                        node = await model.axis_position(1, 4)
+                        data = await node.read_data_value(raise_on_bad_status=False)
+                    except ua.UaStatusCodeError:
+                        return False
+                    return data.StatusCode.is_good()
+
+                await until(rebuilt, timeout=30, what="the device made again with its axes")
+                online = await model.path(
+                    "rob:Controllers", "ven:cell1", "ven:Robostar", "ven:Online"
+                )
+                assert await online.read_value() is True
+            finally:
+                sim.close()
 
     run(main())
 

@@ -174,6 +174,8 @@ class OpcUaFace:
         await events.init(self._event_type, emitting_node=nodes.system.nodeid)
         publisher = LinePublisher(self.ua, nodes, events, self.ns.robotics, self.ns.vendor)
         await publisher.waiting()
+        if line.model.get("online") is None:
+            await publisher.show_online(line.up)
         self.publishers[line.name] = publisher
 
     async def _rebuild(self, line: Line) -> None:

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import datetime as dt
 import logging
+import time
 from collections.abc import Iterable
 from dataclasses import replace
 from typing import Any
@@ -120,6 +121,11 @@ class LinePublisher:
         for node in self.nodes.values.values():
             variant = await _variant_of(node)
             await self._write(node, await node.read_value(), variant, None)
+
+    async def show_online(self, up: bool) -> None:
+        """Whether the line is up is known to the server even before the model says it."""
+        sample = Sample(up, time.time())
+        await self._write(self.nodes.values["online"], up, ua.VariantType.Boolean, sample)
 
     async def apply_all(self, samples: Iterable[tuple[str, Sample]]) -> None:
         for key, sample in samples:
