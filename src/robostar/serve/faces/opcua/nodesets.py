@@ -28,12 +28,21 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from asyncua import ua
+from asyncua.server.address_space import ViewService
 from asyncua.server.internal_server import InternalServer
 from asyncua.server.server import Server
 
 from robostar.serve.faces.opcua._ua import ObjectIds, node_id
 
-__all__ = ["NODESETS", "NODESET_DIR", "CachedInternalServer", "LoadReport", "cache_key"]
+__all__ = [
+    "NODESETS",
+    "NODESET_DIR",
+    "CachedInternalServer",
+    "LoadReport",
+    "MemoViewService",
+    "cache_key",
+]
 
 log = logging.getLogger("robostar.serve.opcua")
 
@@ -72,6 +81,34 @@ def _gc_paused() -> Iterator[None]:
             gc.enable()
 
 
+class MemoViewService(ViewService):
+    """asyncua's browse service, remembering which reference types are subtypes of which.
+
+    asyncua walks the reference type tree again for each reference of each node it browses;
+    with the companion nodesets that is two thirds of the time spent making a line's nodes
+    (4 of 6 s for 8 lines). The tree does not change once the nodesets are in, so the answers
+    are kept from then on (:meth:`freeze`); before, nothing is kept.
+    """
+
+    def __init__(self, aspace: Any) -> None:
+        super().__init__(aspace)
+        self._subtypes: dict[tuple[ua.NodeId, ua.NodeId, bool], bool] | None = None
+
+    def freeze(self) -> None:
+        """The reference types are all known: remember the answers from now on."""
+        self._subtypes = {}
+
+    def _suitable_reftype(self, ref1: ua.NodeId, ref2: ua.NodeId, subtypes: bool) -> bool:
+        memo = self._subtypes
+        if memo is None:
+            return super()._suitable_reftype(ref1, ref2, subtypes)
+        key = (ref1, ref2, subtypes)
+        answer = memo.get(key)
+        if answer is None:
+            answer = memo[key] = super()._suitable_reftype(ref1, ref2, subtypes)
+        return answer
+
+
 class CachedInternalServer(InternalServer):
     """asyncua's InternalServer whose address space comes from the cache when there is one.
 
@@ -85,6 +122,7 @@ class CachedInternalServer(InternalServer):
 
     def __init__(self, cache_dir: Path | None, **kwargs: Any) -> None:
         super().__init__(**kwargs)
+        self.view_service: MemoViewService = MemoViewService(self.aspace)
         self.cache_dir = cache_dir
         self._cached_namespaces: list[str] | None = None
         self.report = LoadReport()
@@ -111,6 +149,7 @@ class CachedInternalServer(InternalServer):
             restored[: len(current)] = current  # index 1 is this server's application URI
             await namespace_node.write_value(restored)
             self._drop_repeated_references()
+            self.view_service.freeze()
             self.report = LoadReport(True, time.perf_counter() - started, cache)
             return self.report
         importer_log = logging.getLogger("asyncua.common.xmlimporter")
@@ -123,6 +162,7 @@ class CachedInternalServer(InternalServer):
                 # (BadParentNodeIdInvalid), although the node itself is sound
                 await server.import_xml(str(NODESET_DIR / name), strict_mode=False)
         importer_log.setLevel(level)
+        self.view_service.freeze()
         if cache is not None:
             self._write_cache(cache, list(await namespace_node.read_value()))
         self.report = LoadReport(False, time.perf_counter() - started, cache)
