@@ -12,6 +12,11 @@ WHEEL_MUST_HOLD = (
     "robostar/__main__.py",
     "robostar/py.typed",
     "robostar/cli/app.py",
+    # the OPC UA face's companion nodesets and their licence (package data)
+    "robostar/serve/faces/opcua/nodesets/Opc.Ua.Di.NodeSet2.xml",
+    "robostar/serve/faces/opcua/nodesets/Opc.Ua.IA.NodeSet2.xml",
+    "robostar/serve/faces/opcua/nodesets/Opc.Ua.Robotics.NodeSet2.xml",
+    "robostar/serve/faces/opcua/nodesets/LICENSE",
 )
 SDIST_MUST_HOLD = (
     "pyproject.toml",
@@ -19,6 +24,7 @@ SDIST_MUST_HOLD = (
     "LICENSE",
     "CHANGELOG.md",
     "src/robostar/py.typed",
+    "src/robostar/serve/faces/opcua/nodesets/LICENSE",
 )
 
 
