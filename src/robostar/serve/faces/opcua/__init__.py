@@ -188,13 +188,15 @@ class OpcUaFace:
         with line.model.subscribe(maxsize=10_000) as changes:
             await self.publishers[line.name].apply_all(line.model.snapshot().items())
             async for change in changes:
-                publisher = self.publishers[line.name]
-                if change.key == "info" and not self.devices[line.name].with_info:
-                    await self._rebuild(line)
-                    await self.publishers[line.name].apply_all(line.model.snapshot().items())
-                    continue
                 try:
-                    await publisher.apply(change.key, change.sample)
+                    device = self.devices.get(line.name)
+                    if device is None:
+                        continue  # its nodes could not be made (logged); nothing to show
+                    if change.key == "info" and not device.with_info:
+                        await self._rebuild(line)
+                        await self.publishers[line.name].apply_all(line.model.snapshot().items())
+                        continue
+                    await self.publishers[line.name].apply(change.key, change.sample)
                 except Exception:  # one bad value must not stop the line's updates
                     log.exception("opcua %s: cannot show %s", line.name, change.key)
 
