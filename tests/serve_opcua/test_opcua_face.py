@@ -19,13 +19,15 @@ from robostar.commands.status import ReadPosition
 from robostar.commands.variables import WriteGlobalFloat, WriteGlobalInt
 from robostar.errors import UsageError
 from robostar.serve.faces.opcua import settings_from
+from robostar.serve.faces.opcua.security import UsersManager
 from robostar.serve.lease import Who
 from robostar.serve.model import Quality
+from robostar.serve.users import LoginLimiter, UserStore
 from robostar.sim import SimConfig, VirtualController
 from robostar.sim.server import SimServer
 from robostar.types import CoordSystem, MotionType, PositionKind
 
-from .conftest import Model, Setup, connect, serving, until
+from .conftest import PASSWORDS, Model, Setup, connect, serving, until
 
 pytestmark = pytest.mark.timeout(120)
 
@@ -538,6 +540,21 @@ def test_anonymous_read_opens_a_read_only_unsigned_endpoint(opcua_setup: Setup) 
             assert not server.line("cell1").model.get("alarms").value
 
     run(main())
+
+
+def test_repeated_wrong_passwords_hold_the_name_off(opcua_setup: Setup) -> None:
+    users = UserStore(opcua_setup.users)
+    clock = [1000.0]
+    limiter = LoginLimiter(attempts=5, window=60.0, clock=lambda: clock[0])
+    manager = UsersManager(users, allow_anonymous=False, limiter=limiter)
+    assert manager.get_user(None, "olga", PASSWORDS["olga"]) is not None
+    for _ in range(5):
+        assert manager.get_user(None, "olga", "wrong-password") is None
+    assert manager.get_user(None, "olga", PASSWORDS["olga"]) is None  # held off
+    assert manager.get_user(None, "vic", PASSWORDS["vic"]) is not None  # others are not
+    clock[0] += 61
+    assert manager.get_user(None, "olga", PASSWORDS["olga"]) is not None
+    assert manager.get_user(None, None, None) is None  # anonymous is off
 
 
 def test_settings_are_checked(tmp_path: Any) -> None:

@@ -12,7 +12,10 @@ import enum
 import functools
 import os
 import tempfile
+import time
 import tomllib
+from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -21,7 +24,7 @@ from argon2.exceptions import InvalidHashError, VerificationError, VerifyMismatc
 
 from robostar.errors import UsageError
 
-__all__ = ["Role", "User", "UserStore", "hash_password"]
+__all__ = ["LoginLimiter", "Role", "User", "UserStore", "hash_password"]
 
 _HASHER = PasswordHasher()
 MIN_PASSWORD = 8
@@ -155,6 +158,41 @@ def _load(path: Path) -> dict[str, User]:
             raise UsageError(f"{where}.password_hash: missing or not an argon2 hash")
         users[name] = User(_check_name(name), Role.parse(role_text), hashed)
     return users
+
+
+class LoginLimiter:
+    """At most ``attempts`` failed sign-ins per ``window`` seconds from one address (the web
+    face) or for one user name (OPC UA, which is not told the address)."""
+
+    def __init__(
+        self, attempts: int = 5, window: float = 60.0, clock: Callable[[], float] = time.monotonic
+    ) -> None:
+        self.attempts = attempts
+        self.window = window
+        self._clock = clock
+        self._failures: dict[str, deque[float]] = {}
+
+    def blocked_for(self, address: str, now: float | None = None) -> float:
+        """Seconds until ``address`` may try again (0: now)."""
+        now = self._clock() if now is None else now
+        failures = self._failures.get(address)
+        if not failures:
+            return 0.0
+        while failures and now - failures[0] > self.window:
+            failures.popleft()
+        if len(failures) < self.attempts:
+            return 0.0
+        return self.window - (now - failures[0])
+
+    def failed(self, address: str, now: float | None = None) -> None:
+        now = self._clock() if now is None else now
+        self._failures.setdefault(address, deque()).append(now)
+        if len(self._failures) > 10_000:  # bounded: forget the oldest addresses
+            for stale in list(self._failures)[:5_000]:
+                del self._failures[stale]
+
+    def succeeded(self, address: str) -> None:
+        self._failures.pop(address, None)
 
 
 @functools.cache

@@ -1,7 +1,8 @@
 """Who may do what on the OPC UA face: users, roles, the application certificate.
 
 - Users come from the line server's users file (``robostar serve user add``): a user name and
-  password token is checked against its argon2 hash; the role (viewer, operator, ...) decides
+  password token is checked against its argon2 hash (five failures in a minute hold that name
+  off for the rest of the minute); the role (viewer, operator, ...) decides
   what the session may call. Anonymous sessions exist only when the configuration allows
   anonymous reading, and are viewers.
 - Every variable is read-only to every client: writes, and changes to the address space, are
@@ -29,7 +30,7 @@ from asyncua.crypto.permission_rules import SimpleRoleRuleset, User, UserRole
 from cryptography.x509.oid import ExtendedKeyUsageOID
 
 from robostar.serve.faces.opcua._ua import ObjectIds, node_id
-from robostar.serve.users import Role, UserStore
+from robostar.serve.users import LoginLimiter, Role, UserStore
 
 __all__ = [
     "Caller",
@@ -107,9 +108,14 @@ class RoleRuleset(SimpleRoleRuleset):
 class UsersManager:
     """asyncua's user manager over the line server's users file."""
 
-    def __init__(self, users: UserStore, *, allow_anonymous: bool) -> None:
+    def __init__(
+        self, users: UserStore, *, allow_anonymous: bool, limiter: LoginLimiter | None = None
+    ) -> None:
         self.users = users
         self.allow_anonymous = allow_anonymous
+        self.limiter = limiter if limiter is not None else LoginLimiter()
+        """Failed sign-ins per user name: after 5 in a minute, that name is refused for the
+        rest of the minute, right password or not (asyncua does not tell the address)."""
 
     def get_user(
         self,
@@ -125,11 +131,17 @@ class UsersManager:
             return User(role=UserRole.Anonymous) if self.allow_anonymous else None
         if password is None:
             return None
+        wait = self.limiter.blocked_for(username)
+        if wait > 0:
+            log.warning("opcua: sign-in of %r refused: too many failures (%.0f s)", username, wait)
+            return None
         # argon2 takes tens of milliseconds, once per session activation
         user = self.users.verify(username, password)
         if user is None:
+            self.limiter.failed(username)
             log.warning("opcua: sign-in refused for %r", username)
             return None
+        self.limiter.succeeded(username)
         return User(role=UserRole.User, name=user.name)
 
 

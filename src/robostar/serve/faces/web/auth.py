@@ -9,13 +9,11 @@ from __future__ import annotations
 
 import hmac
 import secrets
-import time
-from collections import deque
 from dataclasses import dataclass
 
 from starlette.requests import HTTPConnection, Request
 
-from robostar.serve.users import Role, User, UserStore
+from robostar.serve.users import LoginLimiter, Role, User, UserStore
 
 __all__ = ["CSRF_FIELD", "CSRF_HEADER", "Account", "LoginLimiter", "account_of", "csrf_ok"]
 
@@ -64,34 +62,3 @@ async def csrf_ok(request: Request, account: Account) -> bool:
         value = form.get(CSRF_FIELD)
         sent = value if isinstance(value, str) else None
     return sent is not None and hmac.compare_digest(sent, account.csrf)
-
-
-class LoginLimiter:
-    """At most ``attempts`` failed logins per ``window`` seconds from one address."""
-
-    def __init__(self, attempts: int = 5, window: float = 60.0) -> None:
-        self.attempts = attempts
-        self.window = window
-        self._failures: dict[str, deque[float]] = {}
-
-    def blocked_for(self, address: str, now: float | None = None) -> float:
-        """Seconds until ``address`` may try again (0: now)."""
-        now = time.monotonic() if now is None else now
-        failures = self._failures.get(address)
-        if not failures:
-            return 0.0
-        while failures and now - failures[0] > self.window:
-            failures.popleft()
-        if len(failures) < self.attempts:
-            return 0.0
-        return self.window - (now - failures[0])
-
-    def failed(self, address: str, now: float | None = None) -> None:
-        now = time.monotonic() if now is None else now
-        self._failures.setdefault(address, deque()).append(now)
-        if len(self._failures) > 10_000:  # bounded: forget the oldest addresses
-            for stale in list(self._failures)[:5_000]:
-                del self._failures[stale]
-
-    def succeeded(self, address: str) -> None:
-        self._failures.pop(address, None)
