@@ -70,10 +70,7 @@ TASK_CONTROL_OPERATION_TYPE = 1008
 TASK_CONTROL_TYPE = 1011
 SAFETY_STATE_TYPE = 1013
 AXIS_TYPE = 16601
-OPERATIONAL_MODE_ENUMERATION = 3006
 EXECUTION_MODE_ENUMERATION = 18191
-MOTION_DEVICE_CATEGORY_ENUMERATION = 18193
-AXIS_MOTION_PROFILE_ENUMERATION = 3008
 DEVICE_SET = 5001
 """DI's DeviceSet object, where devices live."""
 
@@ -440,14 +437,14 @@ async def _build_channel(
         description="CONTINUOUS: a job started over the host link runs to its end.",
     )
     nodes.values["current_state"] = await b.child(machine, ua.QualifiedName("CurrentState", 0))
-    reference = await b.variable(
+    # the spec's link from a motion device to the task control that moves it
+    await b.variable(
         device,
         f"{base}.TaskControlReference",
         b.rob("TaskControlReference"),
         task.nodeid,
         ua.VariantType.NodeId,
     )
-    del reference
     for method, inputs in (
         ("Start", []),
         ("Stop", [_argument("StopMode", ua.VariantType.Int64, "Ignored: the N1 has one stop.")]),
@@ -461,7 +458,7 @@ async def _build_channel(
     # axes
     axes_folder = await b.child(device, b.rob("Axes"))
     axes_in_use = info.axes_in_use if info is not None else ()
-    for index, axis in enumerate(axes_in_use):
+    for axis in axes_in_use:
         axis_node = await b.instance(
             axes_folder, f"{base}.Axis{axis}", b.vendor(f"Axis{axis}"), AXIS_TYPE
         )
@@ -480,7 +477,6 @@ async def _build_channel(
         else:
             await units.write_value(unit)
         nodes.axes.append(position)
-        del index
 
     # what the spec has no place for
     vendor = await b.folder(device, f"{base}.Robostar", "Robostar")
