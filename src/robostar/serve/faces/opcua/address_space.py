@@ -207,6 +207,26 @@ class _Builder:
             )
         return node
 
+    async def vendor_variables(
+        self,
+        parent: Node,
+        prefix: str,
+        specs: Sequence[tuple[str, str, Any, ua.VariantType, str]],
+    ) -> dict[str, Node]:
+        """Vendor variables under ``parent``: (key, browse name, initial value, type,
+        description) each; the node id is ``<prefix>.<browse name>``."""
+        made = {}
+        for key, name, value, variant, description in specs:
+            made[key] = await self.variable(
+                parent,
+                f"{prefix}.{name}",
+                self.vendor(name),
+                value,
+                variant,
+                description=description,
+            )
+        return made
+
     async def folder(self, parent: Node, path: str, name: str) -> Node:
         return await parent.add_object(self.nodeid(path), self.vendor(name))
 
@@ -279,58 +299,28 @@ async def build_line(
         if with_child is not None:
             await with_child.write_value(value)
     vendor = await b.folder(controller, f"{line}.Controller.Robostar", "Robostar")
-    nodes.values["online"] = await b.variable(
-        vendor,
-        f"{line}.Online",
-        b.vendor("Online"),
-        False,
+    bool_, text, double, int32 = (
         ua.VariantType.Boolean,
-        description="The line server reaches the controller.",
-    )
-    nodes.values["alarms"] = await b.variable(
-        vendor,
-        f"{line}.Alarms",
-        b.vendor("Alarms"),
-        [],
         ua.VariantType.String,
-        description="Current alarms as AB lists them (code : text).",
+        ua.VariantType.Double,
+        ua.VariantType.Int32,
     )
-    nodes.values["alarm_history"] = await b.variable(
-        vendor,
-        f"{line}.AlarmHistory",
-        b.vendor("AlarmHistory"),
-        [],
-        ua.VariantType.String,
-        description="The alarm history (FH), newest first.",
-    )
+    specs: list[tuple[str, str, Any, ua.VariantType, str]] = [
+        ("online", "Online", False, bool_, "The line server reaches the controller."),
+        ("alarms", "Alarms", [], text, "Current alarms as AB lists them (code : text)."),
+        ("alarm_history", "AlarmHistory", [], text, "The alarm history (FH), newest first."),
+    ]
     for port in io_ports:
         for direction, label in (("in", "Inputs"), ("out", "Outputs")):
-            nodes.values[f"io/{direction}/{port}"] = await b.variable(
-                vendor,
-                f"{line}.{label}{port}",
-                b.vendor(f"{label}{port}"),
-                [],
-                ua.VariantType.Boolean,
-                description=f"The 16 contacts of I/O port {port} ({label.lower()}).",
-            )
+            about = f"The 16 contacts of I/O port {port} ({label.lower()})."
+            specs.append((f"io/{direction}/{port}", f"{label}{port}", [], bool_, about))
     for index in global_ints:
-        nodes.values[f"global/int/{index}"] = await b.variable(
-            vendor,
-            f"{line}.GlobalInt{index}",
-            b.vendor(f"GlobalInt{index}"),
-            0,
-            ua.VariantType.Int32,
-            description=f"Global integer variable {index} (GR).",
-        )
+        about = f"Global integer variable {index} (GR)."
+        specs.append((f"global/int/{index}", f"GlobalInt{index}", 0, int32, about))
     for index in global_floats:
-        nodes.values[f"global/float/{index}"] = await b.variable(
-            vendor,
-            f"{line}.GlobalFloat{index}",
-            b.vendor(f"GlobalFloat{index}"),
-            0.0,
-            ua.VariantType.Double,
-            description=f"Global float variable {index} (GR).",
-        )
+        about = f"Global float variable {index} (GR)."
+        specs.append((f"global/float/{index}", f"GlobalFloat{index}", 0.0, double, about))
+    nodes.values.update(await b.vendor_variables(vendor, line, specs))
     nodes.methods["EmergencyStop"] = await vendor.add_method(
         b.nodeid(f"{line}.EmergencyStop"),
         b.vendor("EmergencyStop"),
@@ -480,44 +470,28 @@ async def _build_channel(
 
     # what the spec has no place for
     vendor = await b.folder(device, f"{base}.Robostar", "Robostar")
-    for key, label_text, description in (
-        ("origin", "OriginDone", "Homing (origin) is done."),
-        ("in_position", "InPosition", "The axes are at their target."),
-        ("ready", "Ready", "The channel is ready to run a job."),
-        ("running", "Running", "A job or a motion is running."),
-        ("alarm", "Alarm", "The channel has an alarm."),
-    ):
-        nodes.values[key] = await b.variable(
+    bool_ = ua.VariantType.Boolean
+    nodes.values.update(
+        await b.vendor_variables(
             vendor,
-            f"{base}.{label_text}",
-            b.vendor(label_text),
-            False,
-            ua.VariantType.Boolean,
-            description=description,
+            base,
+            [
+                ("origin", "OriginDone", False, bool_, "Homing (origin) is done."),
+                ("in_position", "InPosition", False, bool_, "The axes are at their target."),
+                ("ready", "Ready", False, bool_, "The channel is ready to run a job."),
+                ("running", "Running", False, bool_, "A job or a motion is running."),
+                ("alarm", "Alarm", False, bool_, "The channel has an alarm."),
+                ("step", "JobStep", 0, ua.VariantType.Int32, "The step the job is at (CB)."),
+                (
+                    "cartesian",
+                    "CartesianPosition",
+                    [],
+                    ua.VariantType.Double,
+                    "The XY position (AC, XY), mm and degrees.",
+                ),
+                ("arm", "ArmForm", "", ua.VariantType.String, "SCARA arm form: LEFT, RIGHT, NONE."),
+            ],
         )
-    nodes.values["step"] = await b.variable(
-        vendor,
-        f"{base}.JobStep",
-        b.vendor("JobStep"),
-        0,
-        ua.VariantType.Int32,
-        description="The step the job is at (CB).",
-    )
-    nodes.values["cartesian"] = await b.variable(
-        vendor,
-        f"{base}.CartesianPosition",
-        b.vendor("CartesianPosition"),
-        [],
-        ua.VariantType.Double,
-        description="The XY position (AC, XY), mm and degrees.",
-    )
-    nodes.values["arm"] = await b.variable(
-        vendor,
-        f"{base}.ArmForm",
-        b.vendor("ArmForm"),
-        "",
-        ua.VariantType.String,
-        description="SCARA arm form: LEFT, RIGHT or NONE.",
     )
     return nodes
 
