@@ -86,6 +86,8 @@ def test_the_robotics_structure_by_browse_names(opcua_setup: Setup) -> None:
             assert not any(name.startswith("<") for name in names)
             device = await model.path("rob:MotionDevices", "ven:Channel1")
             assert await device.read_type_definition() == ua.NodeId(1004, rob)
+            name = await model.path("di:ComponentName")
+            assert (await name.read_value()).Text == "cell1 (Robostar N1)"
             maker = await model.path("rob:MotionDevices", "ven:Channel1", "di:Manufacturer")
             assert (await maker.read_value()).Text == "Robostar"
             category = await model.path(

@@ -227,6 +227,16 @@ class _Builder:
             )
         return made
 
+    async def component_name(self, node: Node, path: str, text: str) -> None:
+        """DI's optional ComponentName, which generic clients show as the instance's name."""
+        await self.variable(
+            node,
+            f"{path}.ComponentName",
+            self.di("ComponentName"),
+            ua.LocalizedText(text),
+            ua.VariantType.LocalizedText,
+        )
+
     async def folder(self, parent: Node, path: str, name: str) -> Node:
         return await parent.add_object(self.nodeid(path), self.vendor(name))
 
@@ -274,6 +284,7 @@ async def build_line(
     device_set = server.get_node(node_id(DEVICE_SET, ns.di))
     system = await b.instance(device_set, line, b.vendor(line), MOTION_DEVICE_SYSTEM_TYPE)
     nodes = DeviceNodes(line, system, system, system, with_info=info is not None)
+    await b.component_name(system, line, f"{line} (Robostar N1)")
 
     # -- the controller ------------------------------------------------------------------
     controllers = await b.child(system, b.rob("Controllers"))
@@ -281,6 +292,7 @@ async def build_line(
         controllers, f"{line}.Controller", b.vendor(line), CONTROLLER_TYPE
     )
     nodes.controller = controller
+    await b.component_name(controller, f"{line}.Controller", f"{line} controller")
     model = info.name if info is not None else "N1"
     await _identity(controller, b, model)
     software_folder = await b.child(controller, b.rob("Software"))
@@ -381,6 +393,7 @@ async def _build_channel(
     line = b.line
     base = f"{line}.ch{channel}"
     device = await b.instance(devices, f"{base}.Device", b.vendor(label), MOTION_DEVICE_TYPE)
+    await b.component_name(device, f"{base}.Device", f"{line} {label}")
     await _identity(
         device,
         b,
