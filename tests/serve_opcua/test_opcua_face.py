@@ -52,6 +52,19 @@ class Changes:
         self.events.append(event)
 
 
+async def _repeated_names(node: Any, path: str = "") -> list[str]:
+    names: list[str] = []
+    repeated = []
+    for child in await node.get_children():
+        name = (await child.read_browse_name()).to_string()
+        if name in names:
+            repeated.append(f"{path}/{name}")
+        names.append(name)
+        if await child.read_node_class() == ua.NodeClass.Object:
+            repeated += await _repeated_names(child, f"{path}/{name}")
+    return repeated
+
+
 def _audit(setup: Setup) -> list[dict[str, Any]]:
     """The audit log's records so far (shared by the session's servers)."""
     path = setup.state / "audit.jsonl"
@@ -155,6 +168,8 @@ def test_the_robotics_structure_by_browse_names(opcua_setup: Setup) -> None:
                 "rob:MotionDevices", "ven:Channel1", "ven:Robostar", "ven:OriginDone"
             )
             assert await origin.read_value() is False
+            # browse paths are unambiguous: no two children of a node share a browse name
+            assert await _repeated_names(system) == []
 
     run(main())
 
