@@ -174,6 +174,55 @@ def test_the_robotics_structure_by_browse_names(opcua_setup: Setup) -> None:
     run(main())
 
 
+async def _mandatory_children(client: Any, type_id: ua.NodeId) -> set[str]:
+    """The browse names of a type's mandatory children, its supertypes' included (the
+    placeholders, whose names are the instance's to choose, left out)."""
+    names: set[str] = set()
+    node = client.get_node(type_id)
+    while True:
+        for child in await node.get_children():
+            rules = await child.get_referenced_nodes(refs=ua.ObjectIds.HasModellingRule)
+            if rules and rules[0].nodeid == ua.NodeId(ua.ObjectIds.ModellingRule_Mandatory):
+                names.add((await child.read_browse_name()).to_string())
+        parents = await node.get_referenced_nodes(
+            refs=ua.ObjectIds.HasSubtype, direction=ua.BrowseDirection.Inverse
+        )
+        if not parents or parents[0].nodeid.NamespaceIndex == 0:
+            return names
+        node = parents[0]
+
+
+def test_every_instance_has_its_types_mandatory_children(opcua_setup: Setup) -> None:
+    """What a generic client checks: each object of a companion-spec type under the line has
+    every child its type declares mandatory, under the same browse name."""
+
+    async def main() -> None:
+        async with serving(opcua_setup) as server, connect(server, opcua_setup) as client:
+            model = Model(client)
+            di, rob, _ = await model.ns()
+            checked = 0
+            missing: list[str] = []
+            pending = [(await model.system(), "cell1")]
+            while pending:
+                node, path = pending.pop()
+                type_id = await node.read_type_definition()
+                if type_id is not None and type_id.NamespaceIndex in (di, rob):
+                    have = {
+                        (await c.read_browse_name()).to_string() for c in await node.get_children()
+                    }
+                    need = await _mandatory_children(client, type_id)
+                    missing += [f"{path}/{name}" for name in sorted(need - have)]
+                    checked += 1
+                for child in await node.get_children():
+                    if await child.read_node_class() == ua.NodeClass.Object:
+                        name = (await child.read_browse_name()).Name
+                        pending.append((child, f"{path}/{name}"))
+            assert missing == []
+            assert checked >= 15  # the system, devices, axes, controller, tasks, safety, ...
+
+    run(main())
+
+
 def test_positions_follow_the_simulator_while_it_moves(opcua_setup: Setup) -> None:
     async def main() -> None:
         async with serving(opcua_setup) as server, connect(server, opcua_setup) as client:
