@@ -622,6 +622,20 @@ def test_repeated_wrong_passwords_hold_the_name_off(opcua_setup: Setup) -> None:
     assert manager.get_user(None, None, None) is None  # anonymous is off
 
 
+def test_a_taken_port_is_a_clear_error(opcua_setup: Setup) -> None:
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+
+        async def main() -> None:
+            with pytest.raises(UsageError, match=f"opcua: cannot serve .*:{port}"):
+                async with serving(opcua_setup, listen=f"127.0.0.1:{port}"):
+                    pass
+
+        run(main())
+
+
 def test_settings_are_checked(tmp_path: Any) -> None:
     users = str(tmp_path / "users.toml")
     with pytest.raises(UsageError, match="loopback"):

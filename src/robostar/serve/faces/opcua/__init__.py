@@ -28,7 +28,7 @@ from asyncua.server.server import Server
 
 from robostar.commands.base import Command
 from robostar.commands.variables import ReadGlobalFloat, ReadGlobalInt
-from robostar.errors import RobostarError
+from robostar.errors import RobostarError, UsageError
 from robostar.serve.faces.opcua._ua import ObjectIds
 from robostar.serve.faces.opcua.address_space import (
     DeviceNodes,
@@ -83,6 +83,19 @@ class OpcUaFace:
         return bserver.port if bserver is not None else self.settings.port
 
     async def start(self) -> None:
+        """Make the address space and the lines' nodes, then listen. A failure (the port taken,
+        say) stops what was started and raises UsageError naming it."""
+        try:
+            await self._start()
+        except BaseException as exc:
+            await self.stop()
+            if isinstance(exc, OSError):
+                raise UsageError(
+                    f"opcua: cannot serve {self.settings.endpoint}: {exc.strerror or exc}"
+                ) from exc
+            raise
+
+    async def _start(self) -> None:
         started = time.perf_counter()
         s = self.settings
         manager = UsersManager(self.users, allow_anonymous=s.allow_anonymous_read)
@@ -230,9 +243,9 @@ class OpcUaFace:
             with contextlib.suppress(asyncio.CancelledError, Exception):
                 await task
         self.tasks.clear()
-        if self.ua is not None:
-            await self.ua.stop()
-            self.ua = None
+        server, self.ua = self.ua, None
+        if server is not None and server.bserver is not None:
+            await server.stop()
 
 
 def create(server: LineServer, options: Mapping[str, Any]) -> OpcUaFace:
