@@ -5,7 +5,9 @@ defaults, the nodeset cache (issue #16)."""
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import json
+import random
 import socket
 from typing import Any
 
@@ -620,6 +622,38 @@ def test_repeated_wrong_passwords_hold_the_name_off(opcua_setup: Setup) -> None:
     clock[0] += 61
     assert manager.get_user(None, "olga", PASSWORDS["olga"]) is not None
     assert manager.get_user(None, None, None) is None  # anonymous is off
+
+
+def test_hostile_bytes_on_the_port_do_not_harm_the_server(opcua_setup: Setup) -> None:
+    rng = random.Random(16)
+    junk = [
+        b"",
+        b"GET / HTTP/1.1\r\nHost: x\r\n\r\n",
+        b"HELF" + (0xFFFFFFF0).to_bytes(4, "little") + bytes(64),  # a huge announced size
+        b"HELF\x1c\x00\x00\x00" + bytes(20),  # a truncated hello
+        b"MSGF" + bytes(4) + bytes(100),
+        *(bytes(rng.getrandbits(8) for _ in range(rng.randint(1, 400))) for _ in range(20)),
+    ]
+
+    async def main() -> None:
+        async with serving(opcua_setup) as server:
+            face: Any = server.faces["opcua"]
+            for payload in junk:
+                reader, writer = await asyncio.open_connection("127.0.0.1", face.port)
+                writer.write(payload)
+                with contextlib.suppress(OSError):
+                    await writer.drain()
+                with contextlib.suppress(OSError, TimeoutError):
+                    await asyncio.wait_for(reader.read(1024), 0.1)
+                writer.close()
+                with contextlib.suppress(OSError):
+                    await writer.wait_closed()
+            async with connect(server, opcua_setup) as client:
+                node = await Model(client).axis_position(1, 1)
+                assert isinstance(await node.read_value(), float)
+            assert server.line("cell1").up
+
+    run(main())
 
 
 def test_a_taken_port_is_a_clear_error(opcua_setup: Setup) -> None:
