@@ -25,8 +25,10 @@ __all__ = ["run"]
 
 RATE_HZ = 10.0
 TARGET = 0.99
-TARGET_N = 128
-"""The issue's target: 128 controllers at 99 % of the asked rate or better."""
+TARGET_NS = (128, 256)
+"""The targets: 128 controllers at 99 % of the asked rate or better (issue "Benchmarks"), and
+256 with the simulators in processes of their own (issue #18). On a 2-core machine both have
+the simulators on the same two cores as the client."""
 PER_PROCESS = 64
 
 
@@ -110,7 +112,7 @@ def _one(n: int, seconds: float) -> dict[str, Any]:
 
 
 def run(
-    *, sizes: tuple[int, ...] = (1, 8, 32, 128), seconds: float = 20.0
+    *, sizes: tuple[int, ...] = (1, 8, 32, 128, 256), seconds: float = 20.0
 ) -> tuple[dict[str, Any], list[Row]]:
     results: dict[str, Any] = {"rate_hz": RATE_HZ, "seconds": seconds, "by_n": []}
     rows = []
@@ -124,8 +126,8 @@ def run(
                 f" {entry['sim_cpu']:.0%} sims)",
                 f"{entry['polls_per_s']:,.1f}/s of {entry['asked_polls_per_s']:,.0f}"
                 f" ({entry['achieved']:.1%}), p99 {entry['latency_p99_ms']:.1f} ms",
-                f"≥ {TARGET:.0%}" if n == TARGET_N else "",
-                entry["achieved"] >= TARGET if n == TARGET_N else None,
+                f"≥ {TARGET:.0%}" if n in TARGET_NS else "",
+                entry["achieved"] >= TARGET if n in TARGET_NS else None,
             )
         )
     return results, rows

@@ -1,4 +1,5 @@
-"""Item 6, memory: this process's resident memory over 100 000 exchanges with the simulator.
+"""Item 6, memory: this process's resident memory over many exchanges with the simulator
+(a million in the full run, issue #18; ten thousand with --quick).
 
 The blocking client alternates AA and AC against ``python -m robostar.sim``. Resident memory
 (RSS) is read after a full garbage collection: at the start (client connected, nothing

@@ -53,8 +53,8 @@ def _items(quick: bool) -> dict[str, Item]:
         "loopback": lambda: loopback.run(),
         "wire": lambda: wire.run(),
         "jog": lambda: jog.run(seconds=60.0),
-        "cell": lambda: cell.run(sizes=(1, 8, 32, 128), seconds=20.0),
-        "memory": lambda: memory.run(exchanges=100_000),
+        "cell": lambda: cell.run(sizes=(1, 8, 32, 128, 256), seconds=20.0),
+        "memory": lambda: memory.run(exchanges=1_000_000),  # issue #18: RSS flat over 1e6
     }
 
 
