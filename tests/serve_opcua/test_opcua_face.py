@@ -27,7 +27,7 @@ from robostar.serve.model import Quality
 from robostar.serve.users import LoginLimiter, UserStore
 from robostar.sim import SimConfig, VirtualController
 from robostar.sim.server import SimServer
-from robostar.types import CoordSystem, MotionType, PositionKind
+from robostar.types import Alarm, CoordSystem, MotionType, PositionKind
 
 from .conftest import PASSWORDS, Model, Setup, connect, serving, until
 
@@ -449,6 +449,50 @@ def test_emergency_stop_raises_an_alarm_event_and_reset_clears_it(opcua_setup: S
     run(main())
 
 
+def test_condition_refresh_replays_each_active_alarm(opcua_setup: Setup) -> None:
+    async def main() -> None:
+        # a slow poller: the alarms the test puts in the model stay there
+        async with (
+            serving(opcua_setup, poll=30.0) as server,
+            connect(server, opcua_setup) as client,
+        ):
+            line = server.line("cell1")
+            model = Model(client)
+            _, _, vendor = await model.ns()
+            system = await model.system()
+            event_type = await client.get_node(ua.ObjectIds.AlarmConditionType).get_child(
+                [f"{vendor}:N1AlarmConditionType"]
+            )
+
+            async def refresh(expect: int) -> list[tuple[int, bool]]:
+                handler = Changes()
+                subscription = await client.create_subscription(20, handler)
+                await subscription.subscribe_alarms_and_conditions(system, event_type)
+                await client.get_node(ua.ObjectIds.ConditionType).call_method(
+                    ua.NodeId(ua.ObjectIds.ConditionType_ConditionRefresh),
+                    ua.Variant(subscription.subscription_id, ua.VariantType.UInt32),
+                )
+
+                async def replayed() -> bool:
+                    return len(handler.events) >= expect
+
+                await until(replayed, what="the replay")
+                await asyncio.sleep(0.3)  # anything more the replay would send comes with it
+                await subscription.delete()
+                return sorted(
+                    (e.AlarmCode, e.Retain) for e in handler.events if hasattr(e, "AlarmCode")
+                )
+
+            line.model.set("alarms", (Alarm(1001, "first"), Alarm(1002, "second")))
+            await asyncio.sleep(0.3)
+            assert await refresh(2) == [(1001, True), (1002, True)]
+            line.model.set("alarms", (Alarm(1001, "first"),))
+            await asyncio.sleep(0.3)
+            assert await refresh(1) == [(1001, True)]
+
+    run(main())
+
+
 def test_start_and_stop_need_the_operator_role(opcua_setup: Setup) -> None:
     async def main() -> None:
         async with serving(opcua_setup) as server:
@@ -469,9 +513,8 @@ def test_start_and_stop_need_the_operator_role(opcua_setup: Setup) -> None:
                 with pytest.raises(ua.UaStatusCodeError) as bad_name:
                     await machine.call_method(f"{rob}:LoadByName", "NO SUCH FILE.JOB")
                 assert bad_name.value.code == ua.StatusCodes.BadInvalidArgument
-                with pytest.raises(ua.UaStatusCodeError) as missing:
-                    await machine.call_method(f"{rob}:LoadByName", "NONE.JOB")
-                assert missing.value.code == ua.StatusCodes.BadInvalidState  # refused by the N1
+                # refused by the N1 (no such file): the spec's E_SystemState
+                assert await machine.call_method(f"{rob}:LoadByName", "NONE.JOB") == 1
                 assert await machine.call_method(f"{rob}:LoadByName", "DEMO.JOB") == 0
                 program = await model.path(
                     "rob:Controllers",
@@ -534,13 +577,13 @@ def test_an_active_alarm_refuses_start_without_sending(opcua_setup: Setup) -> No
             await until(alarmed, what="the alarm in the model")
             before = len(_audit(opcua_setup))
             machine = await model.state_machine(1)
-            with pytest.raises(ua.UaStatusCodeError) as refused:
-                await machine.call_method(f"{rob}:Start")
-            assert refused.value.code == ua.StatusCodes.BadInvalidState
+            assert await machine.call_method(f"{rob}:Start") == -3  # an alarm is active
+            # LoadByName has the spec's own code for it, E_ActiveAlarm
+            assert await machine.call_method(f"{rob}:LoadByName", "DEMO.JOB") == 3
         # refused by the face before the queue: the controller's own refusal would be audited
         # as an error of an exchange that went out
-        starts = [r for r in _audit(opcua_setup)[before:] if "StartJob" in r["what"]]
-        assert [r["outcome"] for r in starts] == ["refused: an alarm is active"]
+        calls = [r for r in _audit(opcua_setup)[before:] if r["face"] == "opcua"]
+        assert [r["outcome"] for r in calls] == ["refused: an alarm is active"] * 2
 
     run(main())
 

@@ -338,7 +338,7 @@ async def build_line(
         b.vendor("EmergencyStop"),
         _no_call,
         [],
-        [_status_argument()],
+        [_status_argument("EmergencyStop")],
     )
 
     # -- the safety state: informational only, as the spec says ---------------------------
@@ -434,10 +434,10 @@ async def _build_channel(
         task_params,
         f"{base}.ExecutionMode",
         b.rob("ExecutionMode"),
-        1,
+        0,
         ua.VariantType.Int32,
         datatype=node_id(EXECUTION_MODE_ENUMERATION, b.ns.robotics),
-        description="CONTINUOUS: a job started over the host link runs to its end.",
+        description="CYCLE: a job started over the host link (CC) runs once, to its EOP.",
     )
     nodes.values["current_state"] = await b.child(machine, ua.QualifiedName("CurrentState", 0))
     # the spec's link from a motion device to the task control that moves it
@@ -454,7 +454,11 @@ async def _build_channel(
         ("LoadByName", [_argument("Name", ua.VariantType.String, "The JOB file, e.g. RS.JOB")]),
     ):
         node = await machine.add_method(
-            b.nodeid(f"{base}.{method}"), b.rob(method), _no_call, inputs, [_status_argument()]
+            b.nodeid(f"{base}.{method}"),
+            b.rob(method),
+            _no_call,
+            inputs,
+            [_status_argument(method)],
         )
         nodes.values[f"method:{method}"] = node
 
@@ -547,10 +551,12 @@ def _argument(name: str, variant: ua.VariantType, description: str) -> ua.Argume
     return argument
 
 
-def _status_argument() -> ua.Argument:
-    return _argument(
-        "Status", ua.VariantType.Int32, "0: done; below 0: refused by the controller (see text)"
-    )
+def _status_argument(method: str) -> ua.Argument:
+    if method == "LoadByName":
+        about = "0 OK, 1 E_SystemState (refused by the controller), 3 E_ActiveAlarm"
+    else:
+        about = "0 OK; vendor codes: -1 refused by the controller, -3 an alarm is active"
+    return _argument("Status", ua.VariantType.Int32, about)
 
 
 async def _no_call(parent: ua.NodeId, *args: Any) -> ua.StatusCode:

@@ -8,14 +8,25 @@
 | ``EmergencyStop`` | the controller's Robostar folder (vendor) | CF |
 
 Each goes through the line's queue, lease and audit log, as ``Who(user, "opcua")``, and only
-for a signed-in user with the operator role on a signed channel. The outcome is an OPC UA
-status code (table below) and, on success, the output argument ``Status`` = 0:
+for a signed-in user with the operator role on a signed channel.
+
+Where the controller (or the face, for it) says no, the call succeeds and its output argument
+``Status`` says why, with the codes the Robotics nodeset gives ``LoadByName`` (0 OK,
+1 E_SystemState, 3 E_ActiveAlarm). ``Start``, ``Stop`` and the vendor ``EmergencyStop`` leave
+codes above 0 to future standards and below 0 to vendors, so they say the same with the sign
+turned: -1 refused by the controller, -3 an alarm is active.
+
+| outcome | ``LoadByName`` | ``Start``, ``Stop``, ``EmergencyStop`` |
+|---|---|---|
+| done | Good, Status 0 | Good, Status 0 |
+| an alarm is active (nothing is sent) | Good, Status 3 | Good, Status -3 (Start) |
+| the controller refused (an error answer) | Good, Status 1 | Good, Status -1 |
+
+Where the call cannot be made at all, the call's own status code says so:
 
 | outcome | status code |
 |---|---|
 | not signed in, not an operator, or an unsigned channel | ``BadUserAccessDenied`` |
-| an alarm is active (Start, LoadByName: nothing is sent) | ``BadInvalidState`` |
-| the controller refused (an error answer) | ``BadInvalidState`` |
 | another consumer holds the line's lease | ``BadLocked`` |
 | a bad argument (a file name the N1 cannot take) | ``BadInvalidArgument`` |
 | the line is down (nothing was sent) | ``BadNoCommunication`` |
@@ -59,14 +70,25 @@ def _code(name: str) -> ua.StatusCode:
     return status(getattr(StatusCodes, name))
 
 
+E_SYSTEM_STATE = 1
+"""The Robotics nodeset's LoadByName Status: the system is not in a state for this."""
+E_ACTIVE_ALARM = 3
+"""The Robotics nodeset's LoadByName Status: an active alarm prevents it."""
+
+
+def _status(method: str, code: int) -> list[ua.Variant]:
+    """The output argument Status: LoadByName's own codes, the vendor's (negative) for the
+    methods whose positive codes are reserved."""
+    value = code if method == "LoadByName" or code == 0 else -code
+    return [ua.Variant(value, ua.VariantType.Int32)]
+
+
 def status_for(exc: RobostarError) -> ua.StatusCode:
-    """The status code a failed command gives its caller (see the module's table)."""
+    """The status code of a call that could not be made (see the module's second table)."""
     if isinstance(exc, LeaseHeldError):
         return _code("BadLocked")
     if isinstance(exc, OutcomeUnknownError | ReplyTimeoutError):
         return _code("BadTimeout")
-    if isinstance(exc, ControllerError):
-        return _code("BadInvalidState")
     if isinstance(exc, UsageError):
         return _code("BadInvalidArgument")
     if isinstance(exc, LineError):
@@ -122,13 +144,16 @@ def handler_for(line: Line, method: str, channel: int | None) -> Handler:
                 what=repr(command),
                 outcome="refused: an alarm is active",
             )
-            return _code("BadInvalidState")
+            return _status(method, E_ACTIVE_ALARM)
         try:
             await line.execute(command, who=who, implicit_lease=True)
+        except ControllerError as exc:
+            log.info("opcua %s: %s by %s refused: %s", line.name, method, who.name, exc)
+            return _status(method, E_SYSTEM_STATE)
         except RobostarError as exc:
             log.info("opcua %s: %s by %s failed: %s", line.name, method, who.name, exc)
             return status_for(exc)
-        return [ua.Variant(0, ua.VariantType.Int32)]
+        return _status(method, 0)
 
     return handle
 

@@ -10,6 +10,7 @@ the value; ``BadCommunicationError`` while the line is down. A new alarm raises 
 
 from __future__ import annotations
 
+import copy
 import datetime as dt
 import logging
 import time
@@ -82,6 +83,9 @@ class LinePublisher:
         self.server = server
         self.nodes = nodes
         self.events = events
+        self._event_template = copy.copy(events.event)
+        """A fresh copy per alarm: asyncua keeps a retained condition's event object itself,
+        so reusing one object would make every retained condition the latest alarm."""
         self.robotics_ns = robotics_ns
         self.vendor_ns = vendor_ns
         self._alarms: dict[int, Alarm] | None = None
@@ -245,7 +249,8 @@ class LinePublisher:
         """One event of N1AlarmConditionType: an AlarmConditionType (its condition id per line
         and code, retained while active so that ConditionRefresh replays it) with the N1's
         code and text in fields of their own."""
-        event: BaseEvent = self.events.event
+        event: BaseEvent = copy.copy(self._event_template)
+        self.events.event = event
         line = self.nodes.line
         state = ua.LocalizedText("Active" if active else "Inactive")
         fields: dict[str, Any] = {
