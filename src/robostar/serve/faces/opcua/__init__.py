@@ -23,13 +23,14 @@ from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
 from asyncua import ua
+from asyncua.common.node import Node
 from asyncua.server.event_generator import EventGenerator
 from asyncua.server.server import Server
 
 from robostar.commands.base import Command
 from robostar.commands.variables import ReadGlobalFloat, ReadGlobalInt
 from robostar.errors import RobostarError, UsageError
-from robostar.serve.faces.opcua._ua import ObjectIds
+from robostar.serve.faces.opcua._ua import ObjectIds, UaStatusCodeError
 from robostar.serve.faces.opcua.address_space import (
     DeviceNodes,
     Namespaces,
@@ -140,11 +141,13 @@ class OpcUaFace:
         await server.start()
         self._read_only_unsigned(server)
         for line in self.server.lines.values():
-            task = asyncio.create_task(self._pump(line), name=f"opcua {line.name}")
-            self.tasks.add(task)
+            jobs = [(self._pump(line), f"opcua {line.name}")]
             if s.global_ints or s.global_floats:
-                reader = asyncio.create_task(self._read_globals(line), name=f"opcua {line.name} GR")
-                self.tasks.add(reader)
+                jobs.append((self._read_globals(line), f"opcua {line.name} GR"))
+            for job, name in jobs:
+                task = asyncio.create_task(job, name=name)
+                task.add_done_callback(_report_end)
+                self.tasks.add(task)
         self.startup_seconds = time.perf_counter() - started
         log.info(
             "opcua face: %s, %d line(s), started in %.2f s (address space %s in %.2f s)",
@@ -192,19 +195,42 @@ class OpcUaFace:
         self.publishers[line.name] = publisher
 
     async def _rebuild(self, line: Line) -> None:
-        """The line came up after the face started: its channels and axes are known now."""
+        """The line came up after the face started: its channels and axes are known now.
+
+        The old nodes are removed without asyncua's search of the whole address space for
+        references to each (a second's freeze of the loop for one line): the only references
+        into the line's subtree from outside are those of its parents (DeviceSet, the Server's
+        event notifier), each the source's forward twin of an inverse reference the system
+        node holds, so those are removed by hand first.
+        """
         old = self.devices.pop(line.name)
-        await old.system.delete(recursive=True)
+        system = old.system
+        for ref in await system.get_references(direction=ua.BrowseDirection.Inverse):
+            source = Node(system.session, ref.NodeId)
+            with contextlib.suppress(UaStatusCodeError):
+                await source.delete_reference(
+                    system.nodeid, ref.ReferenceTypeId, forward=True, bidirectional=False
+                )
+        await system.delete(delete_references=False, recursive=True)
         await self._build(line)
 
     async def _pump(self, line: Line) -> None:
         with line.model.subscribe(maxsize=10_000) as changes:
-            await self.publishers[line.name].apply_all(line.model.snapshot().items())
+            try:
+                await self.publishers[line.name].apply_all(line.model.snapshot().items())
+            except Exception:
+                log.exception("opcua %s: cannot show the model", line.name)
             async for change in changes:
                 try:
                     device = self.devices.get(line.name)
                     if device is None:
-                        continue  # its nodes could not be made (logged); nothing to show
+                        # the nodes could not be made again (logged): try when the line
+                        # comes (back) up, not at every change
+                        if change.key not in ("info", "online"):
+                            continue
+                        await self._build(line)
+                        await self.publishers[line.name].apply_all(line.model.snapshot().items())
+                        continue
                     if change.key == "info" and not device.with_info:
                         await self._rebuild(line)
                         await self.publishers[line.name].apply_all(line.model.snapshot().items())
@@ -227,13 +253,14 @@ class OpcUaFace:
                 publisher = self.publishers.get(line.name)
                 try:
                     value = await line.read(command, max_age=0)
+                    if publisher is not None:
+                        await publisher.apply(key, Sample(value, time.time()))
                 except RobostarError as exc:
                     log.debug("opcua %s: %s not read: %s", line.name, key, exc)
                     if publisher is not None:
                         await publisher.stale(key)
-                    continue
-                if publisher is not None:
-                    await publisher.apply(key, Sample(value, time.time()))
+                except Exception:  # a bug here must not end the reads of every variable
+                    log.exception("opcua %s: %s", line.name, key)
             await asyncio.sleep(s.globals_interval)
 
     async def stop(self) -> None:
@@ -246,6 +273,12 @@ class OpcUaFace:
         server, self.ua = self.ua, None
         if server is not None and server.bserver is not None:
             await server.stop()
+
+
+def _report_end(task: asyncio.Task[Any]) -> None:
+    """A face task ends only when stopped; any other end is a bug, and is logged."""
+    if not task.cancelled() and task.exception() is not None:
+        log.error("opcua: %s ended", task.get_name(), exc_info=task.exception())
 
 
 def create(server: LineServer, options: Mapping[str, Any]) -> OpcUaFace:
