@@ -6,13 +6,15 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import copy
 import json
 import random
 import socket
+from pathlib import Path
 from typing import Any
 
 import pytest
-from asyncua import ua
+from asyncua import Client, ua
 from asyncua.common.subscription import DataChangeNotif
 
 from robostar.commands.control import ResetAlarms, SetSpeed
@@ -21,10 +23,10 @@ from robostar.commands.status import ReadPosition
 from robostar.commands.variables import WriteGlobalFloat, WriteGlobalInt
 from robostar.errors import UsageError
 from robostar.serve.faces.opcua import settings_from
-from robostar.serve.faces.opcua.security import UsersManager
+from robostar.serve.faces.opcua.security import SignInBudget, UsersManager
 from robostar.serve.lease import Who
 from robostar.serve.model import Quality
-from robostar.serve.users import LoginLimiter, UserStore
+from robostar.serve.users import LoginLimiter, Role, UserStore
 from robostar.sim import SimConfig, VirtualController
 from robostar.sim.server import SimServer
 from robostar.types import Alarm, CoordSystem, MotionType, PositionKind
@@ -610,12 +612,24 @@ def test_anonymous_and_wrong_passwords_are_refused_by_default(opcua_setup: Setup
             with pytest.raises(ua.UaError):
                 async with connect(server, opcua_setup, "olga", password="not-her-password"):
                     pass
-            with pytest.raises((ua.UaError, OSError, TimeoutError)):
-                async with connect(server, opcua_setup, "olga", mode="None_"):
-                    pass
             face: Any = server.faces["opcua"]
-            from asyncua import Client
-
+            # a client that insists on no security, although no endpoint offers it, gets a
+            # channel (asyncua makes one) but no session: no password is taken over it
+            for user in ("vic", None):
+                insisting = Client(face.address, timeout=10)
+                if user is not None:
+                    insisting.set_user(user)
+                    insisting.set_password(PASSWORDS[user])
+                with pytest.MonkeyPatch.context() as patch:
+                    patch.setattr(Client, "find_endpoint", staticmethod(_no_security_endpoint))
+                    with pytest.raises(ua.UaStatusCodeError) as refused:
+                        await insisting.connect()
+                assert refused.value.code in (
+                    ua.StatusCodes.BadUserAccessDenied,  # the password, not over this channel
+                    ua.StatusCodes.BadIdentityTokenRejected,  # no anonymous tokens at all
+                )
+                with contextlib.suppress(Exception):
+                    await insisting.disconnect()
             endpoints = await Client(face.address).connect_and_get_server_endpoints()
             modes = {e.SecurityMode for e in endpoints}
             assert modes == {ua.MessageSecurityMode.Sign, ua.MessageSecurityMode.SignAndEncrypt}
@@ -625,6 +639,15 @@ def test_anonymous_and_wrong_passwords_are_refused_by_default(opcua_setup: Setup
             assert tokens == {ua.UserTokenType.UserName}
 
     run(main())
+
+
+def _no_security_endpoint(endpoints: Any, mode: Any, uri: Any) -> Any:
+    """In place of asyncua's Client.find_endpoint, which would refuse: the server's first
+    endpoint, for a channel with no security, the password to be sent in the clear."""
+    endpoint = copy.deepcopy(endpoints[0])
+    for token in endpoint.UserIdentityTokens:
+        token.SecurityPolicyUri = "http://opcfoundation.org/UA/SecurityPolicy#None"
+    return endpoint
 
 
 def test_anonymous_read_opens_a_read_only_unsigned_endpoint(opcua_setup: Setup) -> None:
@@ -639,14 +662,10 @@ def test_anonymous_read_opens_a_read_only_unsigned_endpoint(opcua_setup: Setup) 
                 with pytest.raises(ua.UaStatusCodeError) as refused:
                     await machine.call_method(f"{rob}:Start")
                 assert refused.value.code == ua.StatusCodes.BadUserAccessDenied
-            # even an operator is read-only over the unsigned endpoint
-            async with connect(server, opcua_setup, "olga", mode="None_") as operator:
-                model = Model(operator)
-                _, _, vendor = await model.ns()
-                controller = await model.path("rob:Controllers", "ven:cell1", "ven:Robostar")
-                with pytest.raises(ua.UaStatusCodeError) as refused:
-                    await controller.call_method(f"{vendor}:EmergencyStop")
-                assert refused.value.code == ua.StatusCodes.BadUserAccessDenied
+            # a password never crosses the unsigned endpoint: an operator cannot sign in there
+            with pytest.raises(ua.UaStatusCodeError):
+                async with connect(server, opcua_setup, "olga", mode="None_"):
+                    pass
             assert not server.line("cell1").model.get("alarms").value
 
     run(main())
@@ -656,14 +675,17 @@ def test_repeated_wrong_passwords_hold_the_name_off(opcua_setup: Setup) -> None:
     users = UserStore(opcua_setup.users)
     clock = [1000.0]
     limiter = LoginLimiter(attempts=5, window=60.0, clock=lambda: clock[0])
-    manager = UsersManager(users, allow_anonymous=False, limiter=limiter)
-    assert manager.get_user(None, "olga", PASSWORDS["olga"]) is not None
+    manager = UsersManager(
+        users, allow_anonymous=False, limiter=limiter, budget=SignInBudget(rate=1e6, burst=1000)
+    )
+    cert = b"a channel certificate"
+    assert manager.get_user(None, "olga", PASSWORDS["olga"], cert) is not None
     for _ in range(5):
-        assert manager.get_user(None, "olga", "wrong-password") is None
-    assert manager.get_user(None, "olga", PASSWORDS["olga"]) is None  # held off
-    assert manager.get_user(None, "vic", PASSWORDS["vic"]) is not None  # others are not
+        assert manager.get_user(None, "olga", "wrong-password", cert) is None
+    assert manager.get_user(None, "olga", PASSWORDS["olga"], cert) is None  # held off
+    assert manager.get_user(None, "vic", PASSWORDS["vic"], cert) is not None  # others are not
     clock[0] += 61
-    assert manager.get_user(None, "olga", PASSWORDS["olga"]) is not None
+    assert manager.get_user(None, "olga", PASSWORDS["olga"], cert) is not None
     assert manager.get_user(None, None, None) is None  # anonymous is off
 
 
@@ -711,6 +733,83 @@ def test_a_taken_port_is_a_clear_error(opcua_setup: Setup) -> None:
                     pass
 
         run(main())
+
+
+def test_the_rulesets_refuse_writes_and_mark_channels(opcua_setup: Setup) -> None:
+    from asyncua.crypto.permission_rules import User, UserRole
+
+    from robostar.serve.faces.opcua.security import (
+        RefuseAllRuleset,
+        RoleRuleset,
+        current_caller,
+    )
+
+    users = UserStore(opcua_setup.users)
+    olga = User(role=UserRole.User, name="olga")
+    write = ua.NodeId(ua.ObjectIds.WriteRequest_Encoding_DefaultBinary)
+    read = ua.NodeId(ua.ObjectIds.ReadRequest_Encoding_DefaultBinary)
+    call = ua.NodeId(ua.ObjectIds.CallRequest_Encoding_DefaultBinary)
+    signed, unsigned = RoleRuleset(users, secure=True), RoleRuleset(users, secure=False)
+    assert signed.check_validity(olga, write, None) is False  # even an operator
+    assert signed.check_validity(olga, read, None) is True
+    assert signed.check_validity(olga, call, None) is True
+    caller = current_caller()
+    assert caller is not None and caller.may_operate()
+    assert unsigned.check_validity(olga, call, None) is True
+    caller = current_caller()
+    assert caller is not None and not caller.may_operate()  # unsigned: read-only
+    assert signed.check_validity(User(role=UserRole.User, name="gone"), read, None) is False
+    assert current_caller() is None  # a refused request leaves no caller behind
+    assert RefuseAllRuleset().check_validity(olga, read, None) is False
+
+
+def test_a_sign_in_budget_keeps_argon2_off_the_loop(opcua_setup: Setup) -> None:
+    clock = [0.0]
+    budget = SignInBudget(rate=5.0, burst=5, clock=lambda: clock[0])
+    manager = UsersManager(UserStore(opcua_setup.users), allow_anonymous=False, budget=budget)
+    cert = b"a channel certificate"
+    for _ in range(5):
+        assert manager.get_user(None, "olga", PASSWORDS["olga"], cert) is not None
+    assert manager.get_user(None, "olga", PASSWORDS["olga"], cert) is None  # no hashing
+    clock[0] += 0.2
+    assert manager.get_user(None, "olga", PASSWORDS["olga"], cert) is not None
+    assert manager.get_user(None, "olga", PASSWORDS["olga"], None) is None  # unsigned channel
+
+
+def test_a_changed_users_file_takes_effect_while_running(tmp_path: Path) -> None:
+    path = tmp_path / "users.toml"
+    writer = UserStore(path)
+    writer.add("ann", Role.OPERATOR, "operator-pass-2")
+    reader = UserStore(path)
+    assert reader.get("ann") is not None and reader.get("ann").role is Role.OPERATOR
+    writer.add("ann", Role.VIEWER, "operator-pass-2")
+    writer.add("bo", Role.VIEWER, "viewer-pass-22")
+    reader.refresh(every=0)
+    assert reader.get("ann").role is Role.VIEWER and reader.get("bo") is not None
+    writer.remove("ann")
+    reader.refresh(every=0)
+    assert reader.get("ann") is None
+
+
+def test_a_cache_others_can_write_is_never_loaded(tmp_path: Path) -> None:
+    import pickle
+
+    from robostar.serve.faces.opcua.nodesets import CachedInternalServer
+
+    shared = tmp_path / "shared"
+    shared.mkdir()
+    inside = CachedInternalServer(shared)
+    path = inside._cache_file()
+    assert path is not None
+    path.write_bytes(pickle.dumps(({}, ["http://opcfoundation.org/UA/"])))
+    path.chmod(0o600)
+    shared.chmod(0o700)
+    assert inside._read_cache(path) is not None  # private: taken
+    shared.chmod(0o777)  # anyone could have put it there: a pickle is code
+    assert inside._read_cache(path) is None
+    shared.chmod(0o700)
+    path.chmod(0o666)
+    assert inside._read_cache(path) is None
 
 
 def test_settings_are_checked(tmp_path: Any) -> None:

@@ -79,8 +79,31 @@ class UserStore:
     def __init__(self, path: str | os.PathLike[str] | None) -> None:
         self.path = Path(path) if path is not None else None
         self._users: dict[str, User] = {}
+        self._stamp: int | None = None
+        self._checked = 0.0
         if self.path is not None and self.path.exists():
             self._users = _load(self.path)
+            self._stamp = self.path.stat().st_mtime_ns
+
+    def refresh(self, every: float = 1.0) -> None:
+        """Read the file again if it changed (looked at once per ``every`` seconds at most): a
+        user removed or a role lowered takes effect in a running server. A file that cannot be
+        read keeps the users as they were."""
+        now = time.monotonic()
+        if self.path is None or now - self._checked < every:
+            return
+        self._checked = now
+        try:
+            stamp = self.path.stat().st_mtime_ns
+        except OSError:
+            stamp = None
+        if stamp == self._stamp:
+            return
+        try:
+            self._users = _load(self.path) if stamp is not None else {}
+        except UsageError:
+            return
+        self._stamp = stamp
 
     def __len__(self) -> int:
         return len(self._users)
@@ -133,6 +156,7 @@ class UserStore:
                 handle.write("\n".join(lines))
             os.chmod(tmp, 0o600)  # hashes are secrets too
             os.replace(tmp, self.path)
+            self._stamp = self.path.stat().st_mtime_ns
         except BaseException:
             Path(tmp).unlink(missing_ok=True)
             raise

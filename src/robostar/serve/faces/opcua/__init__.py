@@ -24,6 +24,7 @@ from typing import TYPE_CHECKING, Any
 
 from asyncua import ua
 from asyncua.common.node import Node
+from asyncua.crypto.security_policies import SecurityPolicyFactory, SecurityPolicyNone
 from asyncua.server.event_generator import EventGenerator
 from asyncua.server.server import Server
 
@@ -40,7 +41,12 @@ from robostar.serve.faces.opcua.address_space import (
 from robostar.serve.faces.opcua.methods import handler_for
 from robostar.serve.faces.opcua.nodesets import CachedInternalServer, LoadReport
 from robostar.serve.faces.opcua.publisher import ALARM_EVENT_FIELDS, LinePublisher
-from robostar.serve.faces.opcua.security import RoleRuleset, UsersManager, ensure_certificate
+from robostar.serve.faces.opcua.security import (
+    RefuseAllRuleset,
+    RoleRuleset,
+    UsersManager,
+    ensure_certificate,
+)
 from robostar.serve.faces.opcua.settings import OpcUaSettings, settings_from
 from robostar.serve.model import Sample
 from robostar.serve.users import UserStore
@@ -124,7 +130,9 @@ class OpcUaFace:
             policies.append(ua.SecurityPolicyType.NoSecurity)
             tokens.append(ua.AnonymousIdentityToken)
         server.set_security_policy(
-            policies, permission_ruleset=RoleRuleset(self.users, secure=True)
+            # every channel unsigned (read-only) until _secure_endpoints marks the signed ones
+            policies,
+            permission_ruleset=RoleRuleset(self.users, secure=False),
         )
         server.set_identity_tokens(tokens)
         self.ua = server
@@ -139,7 +147,7 @@ class OpcUaFace:
         for line in self.server.lines.values():
             await self._build(line)
         await server.start()
-        self._read_only_unsigned(server)
+        self._secure_endpoints(server)
         for line in self.server.lines.values():
             jobs = [(self._pump(line), f"opcua {line.name}")]
             if s.global_ints or s.global_floats:
@@ -158,13 +166,35 @@ class OpcUaFace:
             self.load.seconds,
         )
 
-    def _read_only_unsigned(self, server: Server) -> None:
-        """Give the unsigned endpoint's channels a ruleset that marks them unsigned, so that
-        nothing that moves the robot is done over it, whoever signs in. asyncua keeps one
-        policy factory per endpoint (a private list, read once its endpoints are made)."""
-        for factory in getattr(server, "_policies", []):
-            if getattr(factory, "mode", None) == ua.MessageSecurityMode.None_:
-                factory.permission_ruleset = RoleRuleset(self.users, secure=False)
+    def _secure_endpoints(self, server: Server) -> None:
+        """Mark the signed endpoints' channels secure, and close asyncua's back door.
+
+        Every channel starts with the ruleset of an unsigned one (nothing that moves the robot),
+        and the signed endpoints' policy factories get the secure one: should asyncua's private
+        list of factories ever change shape, the server refuses to start rather than fail open.
+        asyncua also serves a client that asks for no security on a policy of its own when no
+        endpoint offers it; a factory for it whose ruleset refuses every request takes its
+        place unless anonymous reading is on (and then that endpoint is the read-only one).
+        """
+        factories = getattr(server, "_policies", None)
+        signed = [
+            f
+            for f in factories or []
+            if getattr(f, "mode", None)
+            in (ua.MessageSecurityMode.Sign, ua.MessageSecurityMode.SignAndEncrypt)
+        ]
+        if not isinstance(factories, list) or len(signed) != 2:
+            raise RuntimeError("opcua: asyncua's endpoint policies are not as expected")
+        for factory in signed:
+            factory.permission_ruleset = RoleRuleset(self.users, secure=True)
+        if not self.settings.allow_anonymous_read:
+            factories.append(
+                SecurityPolicyFactory(  # type: ignore[no-untyped-call]
+                    SecurityPolicyNone,
+                    ua.MessageSecurityMode.None_,
+                    permission_ruleset=RefuseAllRuleset(),
+                )
+            )
 
     async def _build(self, line: Line) -> None:
         assert self.ua is not None and self.ns is not None and self._event_type is not None

@@ -81,6 +81,17 @@ def _gc_paused() -> Iterator[None]:
             gc.enable()
 
 
+def _private(path: Path) -> bool:
+    """Whether ``path`` and its directory belong to this process's user and nobody else may
+    write them: a pickle is code, and only such a file is loaded."""
+    uid = getattr(os, "geteuid", lambda: None)()
+    for each in {path, path.parent}:
+        info = each.stat()
+        if (uid is not None and info.st_uid != uid) or info.st_mode & 0o022:
+            return False
+    return True
+
+
 class MemoViewService(ViewService):
     """asyncua's browse service, remembering which reference types are subtypes of which.
 
@@ -186,6 +197,15 @@ class CachedInternalServer(InternalServer):
         return self.cache_dir / f"address-space-{cache_key()}.pickle"
 
     def _read_cache(self, path: Path) -> tuple[dict[Any, Any], list[str]] | None:
+        if not path.exists():
+            return None
+        if not _private(path):
+            log.warning(
+                "opcua: %s or its directory is not this user's alone; not loaded (rebuilt in"
+                " memory at every start until cache_dir is private)",
+                path,
+            )
+            return None
         try:
             with path.open("rb") as handle, _gc_paused():
                 nodes, namespaces = pickle.load(handle)
@@ -206,6 +226,9 @@ class CachedInternalServer(InternalServer):
             nodes[nodeid].call = None
         try:
             path.parent.mkdir(parents=True, exist_ok=True, mode=0o700)
+            if not _private(path.parent):
+                log.warning("opcua: %s is not this user's alone; no cache written", path.parent)
+                return
             fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".aspace-", suffix=".tmp")
             try:
                 with os.fdopen(fd, "wb") as handle, _gc_paused():

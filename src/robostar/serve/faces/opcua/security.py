@@ -20,6 +20,8 @@ import contextvars
 import logging
 import os
 import socket
+import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -34,7 +36,9 @@ from robostar.serve.users import LoginLimiter, Role, UserStore
 
 __all__ = [
     "Caller",
+    "RefuseAllRuleset",
     "RoleRuleset",
+    "SignInBudget",
     "UsersManager",
     "current_caller",
     "ensure_certificate",
@@ -92,8 +96,10 @@ class RoleRuleset(SimpleRoleRuleset):
         self.secure = secure
 
     def check_validity(self, user: User, action_type_id: ua.NodeId, body: Any) -> bool:
+        _caller.set(None)  # until this request is known to be allowed
         if action_type_id in _ALWAYS_REFUSED:
             return False
+        self.users.refresh()
         role = Role.VIEWER
         if user is not None and user.name is not None:
             stored = self.users.get(user.name)
@@ -105,17 +111,63 @@ class RoleRuleset(SimpleRoleRuleset):
         return True
 
 
+class RefuseAllRuleset(SimpleRoleRuleset):
+    """For an unsigned channel where the configuration offers none: asyncua falls back to an
+    unprotected None policy when no endpoint matches a client's request, so one is put in its
+    place that lets nothing through (a session can be made, and used for nothing)."""
+
+    def __init__(self) -> None:
+        super().__init__()  # type: ignore[no-untyped-call]
+
+    def check_validity(self, user: User, action_type_id: ua.NodeId, body: Any) -> bool:
+        _caller.set(None)
+        return False
+
+
+class SignInBudget:
+    """At most ``rate`` password checks a second for the whole face, ``burst`` at once.
+
+    asyncua asks for the user synchronously, on the event loop, and argon2 takes tens of
+    milliseconds: without a budget, a few clients trying names would stall every line of the
+    server. Beyond the budget a sign-in is refused without hashing.
+    """
+
+    def __init__(
+        self, rate: float = 5.0, burst: int = 5, clock: Callable[[], float] = time.monotonic
+    ) -> None:
+        self.rate = rate
+        self.burst = burst
+        self._clock = clock
+        self._tokens = float(burst)
+        self._at = clock()
+
+    def take(self) -> bool:
+        now = self._clock()
+        self._tokens = min(self.burst, self._tokens + (now - self._at) * self.rate)
+        self._at = now
+        if self._tokens < 1.0:
+            return False
+        self._tokens -= 1.0
+        return True
+
+
 class UsersManager:
     """asyncua's user manager over the line server's users file."""
 
     def __init__(
-        self, users: UserStore, *, allow_anonymous: bool, limiter: LoginLimiter | None = None
+        self,
+        users: UserStore,
+        *,
+        allow_anonymous: bool,
+        limiter: LoginLimiter | None = None,
+        budget: SignInBudget | None = None,
     ) -> None:
         self.users = users
         self.allow_anonymous = allow_anonymous
         self.limiter = limiter if limiter is not None else LoginLimiter()
         """Failed sign-ins per user name: after 5 in a minute, that name is refused for the
         rest of the minute, right password or not (asyncua does not tell the address)."""
+        self.budget = budget if budget is not None else SignInBudget()
 
     def get_user(
         self,
@@ -131,6 +183,15 @@ class UsersManager:
             return User(role=UserRole.Anonymous) if self.allow_anonymous else None
         if password is None:
             return None
+        if not certificate:
+            # an unsigned channel (no peer certificate: None, or b"" as asyncua has it): a
+            # password never crosses one, whatever the client offers
+            log.warning("opcua: sign-in of %r refused: not over an unsigned channel", username)
+            return None
+        if not self.budget.take():
+            log.warning("opcua: sign-in of %r refused: too many sign-ins at once", username)
+            return None
+        self.users.refresh()
         wait = self.limiter.blocked_for(username)
         if wait > 0:
             log.warning("opcua: sign-in of %r refused: too many failures (%.0f s)", username, wait)
