@@ -16,8 +16,9 @@ from __future__ import annotations
 import enum
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import ClassVar
 
-from robostar.errors import LinkRuleError, MalformedAnswerError, UsageError
+from robostar.errors import LinkRuleError, UsageError
 from robostar.protocol.fields import FLAG_END, FLAG_OK
 from robostar.protocol.frame import (
     ACK,
@@ -71,6 +72,10 @@ class Role(enum.Enum):
     HOST = "host"
     CONTROLLER = "controller"
 
+    # Members are singletons compared by identity: hash them so too (in C), not by name in
+    # Python (Enum.__hash__), since every dispatch looks one up.
+    __hash__ = object.__hash__
+
 
 class State(enum.Enum):
     # host
@@ -90,6 +95,8 @@ class State(enum.Enum):
     UPLOAD_WAIT_PACKET = "UPLOAD_WAIT_PACKET"
     UPLOAD_HANDLING = "UPLOAD_HANDLING"
 
+    __hash__ = object.__hash__  # identity, as Role's
+
 
 class Input(enum.Enum):
     # from the line
@@ -106,6 +113,8 @@ class Input(enum.Enum):
     SEND_ANSWER = "send_answer"
     ACCEPT_UPLOAD = "accept_upload"
     ABORT = "abort"
+
+    __hash__ = object.__hash__  # identity, as Role's
 
 
 _APP_INPUTS = frozenset(
@@ -314,6 +323,9 @@ or a second request right behind a request must not pull the exchange from under
 If the held input shows that the peer moved on (an RST, a new request, any packet), the
 application's packet is not sent at all (see ``Link._peer_moved_on``)."""
 
+_COMPLETE = ExchangeComplete()
+"""ExchangeComplete has no fields: every one equals every other, so one will do."""
+
 _CONTROL_INPUT = {
     ControlKind.ACK: Input.ACK,
     ControlKind.NAK: Input.NAK,
@@ -328,6 +340,19 @@ class Link:
 
     role: Role
     _idle: State
+    _handlers: ClassVar[dict[tuple[State, Input], _Handler]] = {}
+    """This class's rows of :data:`TRANSITIONS`, each with its handler function (made once per
+    class, so that a dispatch is one dictionary lookup)."""
+
+    def __init_subclass__(cls, **kwargs: object) -> None:
+        super().__init_subclass__(**kwargs)
+        role = getattr(cls, "role", None)
+        if role is not None:
+            cls._handlers = {
+                (state, what): getattr(cls, name)
+                for (row_role, state, what), name in TRANSITIONS.items()
+                if row_role is role
+            }
 
     def __init__(self, *, timeout: float = 2.0, resend_gap: float = 0.25):
         self.timeout = timeout
@@ -422,14 +447,13 @@ class Link:
             self._fire(Input.CORRUPT, event.raw)
 
     def _fire(self, what: Input, data: bytes) -> None:
-        name = TRANSITIONS.get((self.role, self.state, what))
-        if name is None:
+        handler = self._handlers.get((self.state, what))
+        if handler is None:
             error = LinkRuleError(self.role.value, self.state.value, what.value)
             if what in _APP_INPUTS:
                 raise error
             self._rule_broken(error)
             return
-        handler: _Handler = getattr(type(self), name)
         handler(self, data)
 
     def _take_events(self) -> list[LinkEvent]:
@@ -692,8 +716,12 @@ class HostLink(Link):
         self._arm(self.timeout)
 
     def _arm(self, seconds: float) -> None:
-        super()._arm(seconds)
-        self._clamp()
+        # Link._arm, then _clamp, inline: every request and every answer arms a timer.
+        deadline = self._now + seconds
+        limit = self._limit_at
+        if limit is not None and deadline > limit and self.busy:
+            deadline = limit
+        self._deadline = deadline
 
     def _extend(self, seconds: float) -> None:
         super()._extend(seconds)
@@ -816,7 +844,7 @@ class HostLink(Link):
             # Never shorten the wait: in WAIT_SECOND it runs to the announced work time.
             self._extend(self.timeout + self.resend_grace)
             return
-        if data == self._last_received and any(isinstance(e, Packet) for e in self._backlog):
+        if data == self._last_received and self._backlog and _holds_packet(self._backlog):
             # A copy of the packet we ACKed last with another packet right behind it, in the
             # same read: the controller sent it without waiting for an ACK, which a controller
             # answering us never does (it sends the next packet only after our ACK, and
@@ -839,13 +867,13 @@ class HostLink(Link):
         self._ack(data)
         if flag in _ERROR_FLAGS:
             self._emit(AnswerReceived(data, flag, final=True))
-            self._finish(ExchangeComplete())
+            self._finish(_COMPLETE)
             return
         shape = self.shape
         if shape is Shape.MULTI:
             if flag == FLAG_END:
                 self._emit(AnswerReceived(data, flag, final=True))
-                self._finish(ExchangeComplete())
+                self._finish(_COMPLETE)
             else:
                 self._emit(AnswerReceived(data, flag, final=False))
                 self.state = State.WAIT_MORE
@@ -876,7 +904,7 @@ class HostLink(Link):
             self._arm(wait + self.timeout + self.resend_grace)
             return
         self._emit(AnswerReceived(data, flag, final=True))
-        self._finish(ExchangeComplete())
+        self._finish(_COMPLETE)
 
     def _h_timeout(self, data: bytes) -> None:
         if self.state is State.WAIT_ANSWER and self._maybe_answer:
@@ -884,7 +912,7 @@ class HostLink(Link):
             # resend: nothing else came, so it was a slow controller's answer after all.
             answer, self._maybe_answer = self._maybe_answer, b""
             self._emit(AnswerReceived(answer, _flag_of(answer), final=True))
-            self._finish(ExchangeComplete())
+            self._finish(_COMPLETE)
             return
         if self._limit_at is not None and self._now >= self._limit_at:
             detail = "the exchange ran past its overall limit"
@@ -897,7 +925,7 @@ class HostLink(Link):
 
     def _h_upload_reply(self, data: bytes) -> None:
         self._good_packet()
-        if data == self._last_reply and any(isinstance(e, Packet) for e in self._backlog):
+        if data == self._last_reply and self._backlog and _holds_packet(self._backlog):
             # Two replies in one read: the controller answers each packet once, so the first,
             # a copy of its previous reply, is a repeat and accepts nothing.
             self._emit(Ignored("a repeat of the last reply, sent without waiting", self.state))
@@ -910,7 +938,7 @@ class HostLink(Link):
             self._emit(UploadReady(data))
         elif flag in _ERROR_FLAGS:
             self._emit(AnswerReceived(data, flag, final=True))
-            self._finish(ExchangeComplete())
+            self._finish(_COMPLETE)
         else:
             self._rule_broken(
                 LinkRuleError("host", self.state.value, "packet", f"upload reply {data!r}")
@@ -931,7 +959,7 @@ class HostLink(Link):
         self._arm(self.timeout)
 
     def _h_upload_done(self, data: bytes) -> None:
-        self._finish(ExchangeComplete())
+        self._finish(_COMPLETE)
 
     def _h_upload_final_reply(self, data: bytes) -> None:
         # The controller could not store the file: an error answer in place of the ACK.
@@ -939,7 +967,7 @@ class HostLink(Link):
         flag = _flag_of(data)
         if flag in _ERROR_FLAGS:
             self._emit(AnswerReceived(data, flag, final=True))
-            self._finish(ExchangeComplete())
+            self._finish(_COMPLETE)
         else:
             self._rule_broken(
                 LinkRuleError("host", self.state.value, "packet", f"{data!r} in place of ACK")
@@ -1002,7 +1030,7 @@ class ControllerLink(Link):
             self.state = State.UPLOAD_WAIT_PACKET
             self._arm(self.timeout)
         else:  # FINAL
-            self._finish(ExchangeComplete())
+            self._finish(_COMPLETE)
 
     def _c_acked(self, data: bytes) -> None:
         if self._queue:
@@ -1013,7 +1041,7 @@ class ControllerLink(Link):
             self._after = After.DONE
             self._deadline = None
         else:
-            self._finish(ExchangeComplete())
+            self._finish(_COMPLETE)
 
     def _c_ack_timeout(self, data: bytes) -> None:
         if self._resends < self.max_resends:
@@ -1030,7 +1058,7 @@ class ControllerLink(Link):
             self._rule_broken(LinkRuleError("controller", self.state.value, "non-request packet"))
             return
         if self.state is State.WAIT_ACK and not self._queue and self._after is After.DONE:
-            self._finish(ExchangeComplete())
+            self._finish(_COMPLETE)
         else:
             self._fail(FailReason.SUPERSEDED, "a new request arrived", send_rst=False)
         self._c_request(data)
@@ -1061,15 +1089,18 @@ class ControllerLink(Link):
         if self._peer_moved_on():
             return
         self._send_control(ACK)
-        self._finish(ExchangeComplete())
+        self._finish(_COMPLETE)
+
+
+def _holds_packet(backlog: list[FrameEvent]) -> bool:
+    return any(isinstance(e, Packet) for e in backlog)
 
 
 def _flag_of(data: bytes) -> int:
-    """An answer packet's flag, or -1 when the packet is too short to hold one."""
-    try:
-        return split_answer(data).flag
-    except MalformedAnswerError:
-        return -1
+    """An answer packet's flag, or -1 when the packet is too short to hold one (as
+    :func:`~robostar.protocol.packets.split_answer` reads it: a leading FF is the dummy)."""
+    offset = 1 if data[:1] == b"\xff" else 0
+    return data[offset] if len(data) > offset else -1
 
 
 def announced_wait(data: bytes) -> float | None:
