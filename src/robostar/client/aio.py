@@ -11,14 +11,14 @@ from typing import Any, Self, TypeVar, cast
 
 from robostar.client._async_face import AsyncOperations
 from robostar.client.core import DRAIN_READS, ClientBase, Settings, check_keepalive
-from robostar.client.driver import command_plan
+from robostar.client.driver import command_plan, decode, is_plain_answer
 from robostar.client.exchange import Exchange, Outcome, Progress
 from robostar.client.jog import AsyncJog, jog_start
 from robostar.client.locks import AsyncPriorityLock
 from robostar.client.plan import Call, Effect, Plan, run_plan_async
 from robostar.client.trace import TraceTarget
 from robostar.commands.base import Command
-from robostar.errors import PortError, RobostarError, UsageError
+from robostar.errors import MalformedAnswerError, PortError, RobostarError, UsageError
 from robostar.transport import AsyncTransport, async_transport_for_url
 from robostar.types import JogDirection, MotionType
 
@@ -117,16 +117,29 @@ class AsyncClient(AsyncOperations, ClientBase):
     async def _call(
         self, command: Command[R], progress: Progress | None = None, *, urgent: bool = False
     ) -> R:
-        async with self._lock.hold(urgent=urgent):
-            await self._ensure_open()
+        lock = self._lock
+        if not lock.try_acquire():
+            await lock.acquire(urgent=urgent)
+        try:
+            if not self.transport.is_open:
+                await self._ensure_open()
+            outcome = await self._exchange(command, progress)
+            if is_plain_answer(command, outcome):
+                # As in Client._call: a clean answer that decodes needs none of the rules.
+                try:
+                    return decode(command, outcome.packets)
+                except MalformedAnswerError:
+                    pass
             plan = command_plan(command, self._policy)
             request = next(plan)  # the rules always ask for the command first
             while True:
-                outcome = await self._exchange(request, progress if request is command else None)
                 try:
                     request = plan.send(outcome)
                 except StopIteration as done:
                     return cast(R, done.value)
+                outcome = await self._exchange(request, progress if request is command else None)
+        finally:
+            lock.release()
 
     # -- the line -------------------------------------------------------------------------
     async def _exchange(self, command: Command[Any], progress: Progress | None) -> Outcome:
