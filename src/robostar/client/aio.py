@@ -146,14 +146,15 @@ class AsyncClient(AsyncOperations, ClientBase):
         """One exchange, as one loop (the asyncio twin of Client._exchange)."""
         transport = self.transport
         traced = self._trace is not None
-        exchange = Exchange(self._link, command, progress)
+        link = self._link
+        exchange = Exchange(link, command, progress)
         written = False
         clock = time.monotonic
         try:
             await self._drain()
             exchange.start(clock())
             while True:
-                out = exchange.output()
+                out = link.data_to_send()  # exchange.output(), without the call
                 if out:
                     written = True
                     if traced:
@@ -161,7 +162,10 @@ class AsyncClient(AsyncOperations, ClientBase):
                     await transport.write(out)
                 if exchange.done:
                     return exchange.outcome()
-                data = await transport.read(max(exchange.deadline() - clock(), 0.0))
+                deadline = link.next_deadline()
+                if deadline is None:
+                    deadline = exchange.deadline()  # raises: the link must be timing a wait
+                data = await transport.read(max(deadline - clock(), 0.0))
                 if data:
                     if traced:
                         self._traced_received(data)

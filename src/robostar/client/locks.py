@@ -29,7 +29,9 @@ class PriorityLock:
     """A thread lock where ``urgent`` acquirers go ahead of ordinary ones."""
 
     def __init__(self) -> None:
-        self._cond = threading.Condition(threading.Lock())
+        # The condition's own lock, held directly (a C context manager) where no wait follows.
+        self._mutex = threading.Lock()
+        self._cond = threading.Condition(self._mutex)
         self._owner: int | None = None
         self._urgent = 0
         self._waiting = 0  # threads inside wait(): only they need a notify
@@ -46,7 +48,7 @@ class PriorityLock:
         """Take the lock (an urgent caller ahead of ordinary waiters); pair with
         :meth:`release`. :meth:`hold` does both."""
         me = threading.get_ident()
-        with self._cond:
+        with self._mutex:
             owner = self._owner
             if owner == me:
                 raise UsageError(_REENTRY)
@@ -70,7 +72,7 @@ class PriorityLock:
             self._owner = me
 
     def release(self) -> None:
-        with self._cond:
+        with self._mutex:
             self._owner = None
             if self._waiting:
                 self._cond.notify_all()

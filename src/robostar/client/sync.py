@@ -156,14 +156,15 @@ class Client(SyncOperations, ClientBase):
         link says the exchange is over (see core.ClientBase for the rules it shares)."""
         transport = self.transport
         traced = self._trace is not None
-        exchange = Exchange(self._link, command, progress)
+        link = self._link
+        exchange = Exchange(link, command, progress)
         written = False
         clock = time.monotonic
         try:
             self._drain()
             exchange.start(clock())
             while True:
-                out = exchange.output()
+                out = link.data_to_send()  # exchange.output(), without the call
                 if out:
                     written = True
                     if traced:
@@ -171,7 +172,10 @@ class Client(SyncOperations, ClientBase):
                     transport.write(out)
                 if exchange.done:
                     return exchange.outcome()
-                data = transport.read(max(exchange.deadline() - clock(), 0.0))
+                deadline = link.next_deadline()
+                if deadline is None:
+                    deadline = exchange.deadline()  # raises: the link must be timing a wait
+                data = transport.read(max(deadline - clock(), 0.0))
                 if data:
                     if traced:
                         self._traced_received(data)

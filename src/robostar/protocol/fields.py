@@ -12,7 +12,7 @@ import enum
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TypeVar
+from typing import TypeVar, cast
 
 from robostar.errors import FieldError
 from robostar.types import ChannelStatus
@@ -320,8 +320,9 @@ class FileName:
         return encode_text(command, field, str(self), width, align=align)
 
 
-_ENUM_BOUNDS: dict[type[enum.IntEnum], tuple[int, int]] = {}
-"""The lowest and highest value of each IntEnum a Reader has read (enums are fixed)."""
+_ENUM_VALUES: dict[type[enum.IntEnum], tuple[int, int, dict[int, enum.IntEnum]]] = {}
+"""The lowest and highest value of each IntEnum a Reader has read, and its members by value
+(``kind(value)`` without the enum machinery; enums are fixed)."""
 
 
 class Reader:
@@ -371,15 +372,16 @@ class Reader:
         return check_range(self.command, field, int(raw), lo, hi, flag=flag)
 
     def enum(self, field: str, kind: type[_E], *, flag: int = FLAG_REJECTED) -> _E:
-        bounds = _ENUM_BOUNDS.get(kind)
-        if bounds is None:
+        known = _ENUM_VALUES.get(kind)
+        if known is None:
             values = [int(v) for v in kind]
-            bounds = _ENUM_BOUNDS[kind] = (min(values), max(values))
-        value = self.code(field, *bounds, flag=flag)
-        try:
-            return kind(value)
-        except ValueError:
-            raise FieldError(self.command, field, f"{value} is not valid", flag=flag) from None
+            known = _ENUM_VALUES[kind] = (min(values), max(values), {int(v): v for v in kind})
+        lo, hi, members = known
+        value = self.code(field, lo, hi, flag=flag)
+        member = members.get(value)
+        if member is None:
+            raise FieldError(self.command, field, f"{value} is not valid", flag=flag)
+        return cast(_E, member)
 
     def channel(self, field: str = "channel") -> int:
         """The wire's ``'0'..'2'`` as pendant channel 1-3."""
@@ -416,7 +418,7 @@ class Reader:
 
     def end(self) -> None:
         """Fail if bytes are left over."""
-        if self.remaining:
+        if len(self.data) > self.pos:
             raise FieldError(
                 self.command, "packet", f"{self.remaining} unexpected bytes at the end"
             )

@@ -735,7 +735,9 @@ class HostLink(Link):
 
     def _finish(self, event: LinkEvent) -> None:
         self._limit_at = None
-        super()._finish(event)
+        self._deadline = None  # Link._finish, inline: every exchange ends here
+        self.state = self._idle
+        self._events.append(event)
 
     def _fail(
         self,
@@ -828,13 +830,13 @@ class HostLink(Link):
         return True
 
     def _ack(self, data: bytes) -> None:
-        self._send_control(ACK)
+        self._out.append(ACK)
         self._last_received = data
         self._last_ack_at = self._now
 
     def _h_answer(self, data: bytes) -> None:
-        self._good_packet()
-        if self._is_resend(data):
+        self._corrupt = 0  # _good_packet(), inline
+        if data == self._last_received and self._is_resend(data):
             self._ack(data)
             self._emit(Ignored("resent answer (ACKed again)", self.state))
             if self.state is State.WAIT_ANSWER and not self._send_once:
