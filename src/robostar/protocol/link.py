@@ -431,12 +431,13 @@ class Link:
             self._dispatch_frame(self._backlog.pop(0))
 
     def _dispatch_frame(self, event: FrameEvent) -> None:
+        if isinstance(event, Packet):  # the usual event first
+            self._fire(Input.PACKET, event.data)
+            return
         if isinstance(event, CorruptPacket):
             self.corrupt_frames += 1
             self.last_corrupt = event.reason
-        if isinstance(event, Packet):
-            self._fire(Input.PACKET, event.data)
-        elif isinstance(event, Control):
+        if isinstance(event, Control):
             self._fire(_CONTROL_INPUT[event.kind], b"")
         elif event.reason is CorruptReason.TRUNCATED:
             # A frame cut short by a new STX needs no NAK: the next frame is already arriving,
