@@ -323,6 +323,9 @@ or a second request right behind a request must not pull the exchange from under
 If the held input shows that the peer moved on (an RST, a new request, any packet), the
 application's packet is not sent at all (see ``Link._peer_moved_on``)."""
 
+_NOT_BUSY = frozenset((State.IDLE, State.RESYNC))
+"""A host link's states outside an exchange (:attr:`Link.busy` is False in them)."""
+
 _COMPLETE = ExchangeComplete()
 """ExchangeComplete has no fields: every one equals every other, so one will do."""
 
@@ -385,7 +388,8 @@ class Link:
         """Feed bytes from the line."""
         self._now = now
         self._backlog.extend(self.decoder.feed(data))
-        self._take_backlog()
+        if self._backlog:
+            self._take_backlog()
         return self._take_events()
 
     def data_to_send(self) -> bytes:
@@ -411,7 +415,8 @@ class Link:
         """End the current exchange at once by sending RST (Ctrl-C, a jog that must stop)."""
         self._now = now
         self._fire(Input.ABORT, b"")
-        self._take_backlog()
+        if self._backlog:
+            self._take_backlog()
         return self._take_events()
 
     @property
@@ -672,21 +677,24 @@ class HostLink(Link):
         self._pending_once = once
         self._pending_max = max_packets
         self._fire(Input.SEND_REQUEST, data)
-        self._take_backlog()
+        if self._backlog:
+            self._take_backlog()
         return self._take_events()
 
     def send_upload_line(self, body: bytes, now: float) -> list[LinkEvent]:
         """FB: send one content packet (``0x30`` + body) after :class:`UploadReady`."""
         self._now = now
         self._fire(Input.SEND_LINE, body)
-        self._take_backlog()
+        if self._backlog:
+            self._take_backlog()
         return self._take_events()
 
     def send_upload_end(self, now: float) -> list[LinkEvent]:
         """FB: send the closing 0x34 packet; a lone ACK completes the upload."""
         self._now = now
         self._fire(Input.SEND_END, b"")
-        self._take_backlog()
+        if self._backlog:
+            self._take_backlog()
         return self._take_events()
 
     # -- handlers --------------------------------------------------------------------------
@@ -720,7 +728,7 @@ class HostLink(Link):
         # Link._arm, then _clamp, inline: every request and every answer arms a timer.
         deadline = self._now + seconds
         limit = self._limit_at
-        if limit is not None and deadline > limit and self.busy:
+        if limit is not None and deadline > limit and self.state not in _NOT_BUSY:
             deadline = limit
         self._deadline = deadline
 
@@ -1000,14 +1008,16 @@ class ControllerLink(Link):
         self._now = now
         self._pending = (list(packets), after)
         self._fire(Input.SEND_ANSWER, b"")
-        self._take_backlog()
+        if self._backlog:
+            self._take_backlog()
         return self._take_events()
 
     def accept_upload(self, now: float) -> list[LinkEvent]:
         """FB: the closing 0x34 was stored; answer with a lone ACK."""
         self._now = now
         self._fire(Input.ACCEPT_UPLOAD, b"")
-        self._take_backlog()
+        if self._backlog:
+            self._take_backlog()
         return self._take_events()
 
     # -- handlers --------------------------------------------------------------------------
