@@ -472,7 +472,10 @@ class Link:
         self._events.append(event)
 
     def _send_packet(self, data: bytes, *, fresh: bool = True) -> None:
-        frame = encode_packet(data)
+        self._send_frame(encode_packet(data), fresh=fresh)
+
+    def _send_frame(self, frame: bytes, *, fresh: bool = True) -> None:
+        """Send a packet already framed (by :func:`encode_packet`)."""
         self._out += frame
         self._last_sent = frame
         if fresh:
@@ -994,7 +997,7 @@ class ControllerLink(Link):
     def __init__(self, *, timeout: float = 2.0, max_resends: int = MAX_RESENDS):
         super().__init__(timeout=timeout)
         self.max_resends = max_resends
-        self._queue: list[bytes] = []
+        self._queue: list[bytes] = []  # the answer's later packets, framed
         self._after = After.DONE
 
     # -- application calls -----------------------------------------------------------------
@@ -1002,11 +1005,11 @@ class ControllerLink(Link):
         """Answer the current request (or upload packet) with one or more packets' data."""
         if not packets:
             raise UsageError("send_answer: packets must hold at least one packet")
-        for data in packets:
-            # Later packets go out only after ACKs; refuse a bad one now, before any is sent.
-            encode_packet(data)
+        # Later packets go out only after ACKs; refuse a bad one now, before any is sent (and
+        # keep the frames: each is sent as framed here).
+        frames = [encode_packet(data) for data in packets]
         self._now = now
-        self._pending = (list(packets), after)
+        self._pending = (frames, after)
         self._fire(Input.SEND_ANSWER, b"")
         if self._backlog:
             self._take_backlog()
@@ -1029,10 +1032,10 @@ class ControllerLink(Link):
     def _c_send_answer(self, data: bytes) -> None:
         if self._peer_moved_on():
             return
-        packets, after = self._pending
-        self._queue = packets[1:]
+        frames, after = self._pending
+        self._queue = frames[1:]
         self._after = after
-        self._send_packet(packets[0])
+        self._send_frame(frames[0])
         self._after_send()
 
     def _after_send(self) -> None:
@@ -1047,7 +1050,7 @@ class ControllerLink(Link):
 
     def _c_acked(self, data: bytes) -> None:
         if self._queue:
-            self._send_packet(self._queue.pop(0))
+            self._send_frame(self._queue.pop(0))
             self._after_send()
         elif self._after is After.SECOND_PHASE:
             self.state = State.WORKING
