@@ -117,6 +117,14 @@ class ChannelStatus:
 
     @classmethod
     def from_byte(cls, value: int) -> ChannelStatus:
+        if cls is ChannelStatus:
+            # Frozen and equal field by field: the one made beforehand for these six bits is
+            # as good as a new one, and a status read builds none.
+            return _CHANNEL_STATUSES[value & 0x3F]
+        return cls._make(value)
+
+    @classmethod
+    def _make(cls, value: int) -> ChannelStatus:
         return cls(
             servo_on=bool(value & 0x20),
             origin=bool(value & 0x10),
@@ -130,6 +138,10 @@ class ChannelStatus:
         names = ("servo_on", "origin", "alarm", "ready", "in_position", "running")
         on = [n for n in names if getattr(self, n)]
         return ", ".join(on) if on else "-"
+
+
+_CHANNEL_STATUSES = tuple(ChannelStatus._make(bits) for bits in range(0x40))
+"""Every status a byte can hold (its six low bits), made once."""
 
 
 @dataclass(frozen=True, slots=True)

@@ -468,3 +468,21 @@ def test_reader_enum_with_holes() -> None:
     assert Reader("XX", b"3").enum("kind", Odd) is Odd.THREE
     error = field_error(Reader("XX", b"2").enum, "kind", Odd)
     assert error.field == "kind"
+
+
+def test_every_status_byte_decodes_equal_to_a_status_built_from_its_bits() -> None:
+    # Statuses are handed out from a table made once: each must equal, field by field, the one
+    # a caller would build, and stay a ChannelStatus that round-trips to its byte.
+    for value in range(256):
+        status = ChannelStatus.from_byte(value)
+        assert type(status) is ChannelStatus
+        assert status == ChannelStatus(
+            servo_on=bool(value & 0x20),
+            origin=bool(value & 0x10),
+            alarm=bool(value & 0x08),
+            ready=bool(value & 0x04),
+            in_position=bool(value & 0x02),
+            running=bool(value & 0x01),
+        )
+        assert status.to_byte() == 0x80 | (value & 0x3F)
+        assert hash(status) == hash(ChannelStatus.from_byte(value & 0x3F))

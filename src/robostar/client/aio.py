@@ -11,14 +11,14 @@ from typing import Any, Self, TypeVar, cast
 
 from robostar.client._async_face import AsyncOperations
 from robostar.client.core import DRAIN_READS, ClientBase, Settings, check_keepalive
-from robostar.client.driver import command_plan
+from robostar.client.driver import command_plan, decode, is_plain_answer
 from robostar.client.exchange import Exchange, Outcome, Progress
 from robostar.client.jog import AsyncJog, jog_start
 from robostar.client.locks import AsyncPriorityLock
 from robostar.client.plan import Call, Effect, Plan, run_plan_async
 from robostar.client.trace import TraceTarget
 from robostar.commands.base import Command
-from robostar.errors import PortError, RobostarError, UsageError
+from robostar.errors import MalformedAnswerError, PortError, RobostarError, UsageError
 from robostar.transport import AsyncTransport, async_transport_for_url
 from robostar.types import JogDirection, MotionType
 
@@ -117,30 +117,44 @@ class AsyncClient(AsyncOperations, ClientBase):
     async def _call(
         self, command: Command[R], progress: Progress | None = None, *, urgent: bool = False
     ) -> R:
-        async with self._lock.hold(urgent=urgent):
-            await self._ensure_open()
+        lock = self._lock
+        if not lock.try_acquire():
+            await lock.acquire(urgent=urgent)
+        try:
+            if not self.transport.is_open:
+                await self._ensure_open()
+            outcome = await self._exchange(command, progress)
+            if is_plain_answer(command, outcome):
+                # As in Client._call: a clean answer that decodes needs none of the rules.
+                try:
+                    return decode(command, outcome.packets)
+                except MalformedAnswerError:
+                    pass
             plan = command_plan(command, self._policy)
             request = next(plan)  # the rules always ask for the command first
             while True:
-                outcome = await self._exchange(request, progress if request is command else None)
                 try:
                     request = plan.send(outcome)
                 except StopIteration as done:
                     return cast(R, done.value)
+                outcome = await self._exchange(request, progress if request is command else None)
+        finally:
+            lock.release()
 
     # -- the line -------------------------------------------------------------------------
     async def _exchange(self, command: Command[Any], progress: Progress | None) -> Outcome:
         """One exchange, as one loop (the asyncio twin of Client._exchange)."""
         transport = self.transport
         traced = self._trace is not None
-        exchange = Exchange(self._link, command, progress)
+        link = self._link
+        exchange = Exchange(link, command, progress)
         written = False
         clock = time.monotonic
         try:
             await self._drain()
             exchange.start(clock())
             while True:
-                out = exchange.output()
+                out = link.data_to_send()  # exchange.output(), without the call
                 if out:
                     written = True
                     if traced:
@@ -148,7 +162,10 @@ class AsyncClient(AsyncOperations, ClientBase):
                     await transport.write(out)
                 if exchange.done:
                     return exchange.outcome()
-                data = await transport.read(max(exchange.deadline() - clock(), 0.0))
+                deadline = link.next_deadline()
+                if deadline is None:
+                    deadline = exchange.deadline()  # raises: the link must be timing a wait
+                data = await transport.read(max(deadline - clock(), 0.0))
                 if data:
                     if traced:
                         self._traced_received(data)

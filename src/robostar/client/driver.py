@@ -17,7 +17,7 @@ from collections.abc import Generator
 from dataclasses import dataclass
 from typing import Any, TypeVar, cast
 
-from robostar.client.exchange import Outcome
+from robostar.client.exchange import Outcome, is_upload
 from robostar.commands.base import Command
 from robostar.commands.files import DownloadFile, UploadFile, parse_point_line
 from robostar.commands.system import ReadLastError
@@ -39,7 +39,7 @@ from robostar.protocol.fields import FLAG_FAILED
 from robostar.protocol.link import MAX_NAKS, ExchangeFailed, FailReason, State
 from robostar.types import CoordSystem, JobFile, PointFile
 
-__all__ = ["CommandPlan", "Policy", "command_plan", "decode", "upload_matches"]
+__all__ = ["CommandPlan", "Policy", "command_plan", "decode", "is_plain_answer", "upload_matches"]
 
 T = TypeVar("T")
 CommandPlan = Generator[Command[Any], Outcome, T]
@@ -107,6 +107,13 @@ def failure_error(command: Command[Any], failure: ExchangeFailed, policy: Policy
         # controller carried it out.
         return OutcomeUnknownError(code, failure.detail or reason.value)
     return LinkResetError(code, failure.detail or reason.value)
+
+
+def is_plain_answer(command: Command[Any], outcome: Outcome) -> bool:
+    """Did the first exchange of ``command`` end with an answer that :func:`command_plan`
+    would only decode (no failure, no error flag, not an upload)? The clients then decode it
+    at once; should it not decode, the plan takes the same outcome and applies its rules."""
+    return outcome.failure is None and outcome.flag is None and not is_upload(command)
 
 
 def command_plan(command: Command[T], policy: Policy) -> CommandPlan[T]:

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, cast
 
 from robostar.commands.base import Command, split_answer
 from robostar.commands.files import DownloadFile, UploadFile
@@ -25,7 +25,7 @@ from robostar.protocol.link import (
     UploadReady,
 )
 
-__all__ = ["ERROR_FLAGS", "Exchange", "Outcome", "Progress"]
+__all__ = ["ERROR_FLAGS", "Exchange", "Outcome", "Progress", "is_upload"]
 
 ERROR_FLAGS = frozenset((FLAG_REJECTED, FLAG_FAILED, FLAG_UNSUPPORTED))
 
@@ -61,6 +61,25 @@ def _job_total(command: DownloadFile, first: bytes) -> int | None:
     return int(text) + 2 if text.isdigit() else None
 
 
+_KINDS: dict[type, tuple[bool, bool]] = {}
+
+
+def _kind(command: Command[Any]) -> tuple[bool, bool]:
+    """Is ``command`` an FB upload, an FA download? (Asked of its class once: Command is an
+    ABC, and an isinstance check through ABCMeta costs more than the dictionary.)"""
+    kind = _KINDS.get(type(command))
+    if kind is None:
+        kind = _KINDS[type(command)] = (
+            isinstance(command, UploadFile),
+            isinstance(command, DownloadFile),
+        )
+    return kind
+
+
+def is_upload(command: Command[Any]) -> bool:
+    return _kind(command)[0]
+
+
 class Exchange:
     """Runs one command's exchange on ``link``; the caller moves the bytes.
 
@@ -76,13 +95,14 @@ class Exchange:
         self.progress = progress
         # Encoding checks every field; a bad one raises FieldError before anything is written.
         self.request = command.encode()
-        self._bodies = command.upload_bodies() if isinstance(command, UploadFile) else []
+        upload, self._download = _kind(command)
+        self._bodies = cast(UploadFile, command).upload_bodies() if upload else []
         self._next_line = 0
         self._accepted = 0
         self._packets: list[bytes] = []
         self._flag: int | None = None
         self._failure: ExchangeFailed | None = None
-        self._total = len(self._bodies) if isinstance(command, UploadFile) else None
+        self._total = len(self._bodies) if upload else None
         self.done = False
 
     def start(self, now: float) -> None:
@@ -142,8 +162,8 @@ class Exchange:
                 self.done = True
 
     def _answer_progress(self, data: bytes) -> None:
-        if isinstance(self.command, DownloadFile) and len(self._packets) == 1:
-            self._total = _job_total(self.command, data)
+        if self._download and len(self._packets) == 1:
+            self._total = _job_total(cast(DownloadFile, self.command), data)
         if self.progress is not None:
             self.progress(len(self._packets), self._total)
 

@@ -29,32 +29,52 @@ class PriorityLock:
     """A thread lock where ``urgent`` acquirers go ahead of ordinary ones."""
 
     def __init__(self) -> None:
-        self._cond = threading.Condition(threading.Lock())
+        # The condition's own lock, held directly (a C context manager) where no wait follows.
+        self._mutex = threading.Lock()
+        self._cond = threading.Condition(self._mutex)
         self._owner: int | None = None
         self._urgent = 0
+        self._waiting = 0  # threads inside wait(): only they need a notify
 
     @contextmanager
     def hold(self, *, urgent: bool = False) -> Iterator[None]:
+        self.acquire(urgent=urgent)
+        try:
+            yield
+        finally:
+            self.release()
+
+    def acquire(self, *, urgent: bool = False) -> None:
+        """Take the lock (an urgent caller ahead of ordinary waiters); pair with
+        :meth:`release`. :meth:`hold` does both."""
         me = threading.get_ident()
-        with self._cond:
-            if self._owner == me:
+        with self._mutex:
+            owner = self._owner
+            if owner == me:
                 raise UsageError(_REENTRY)
+            if owner is None and not self._urgent:
+                # Free, and no urgent caller waits: nobody to step aside for or to wake.
+                self._owner = me
+                return
             if urgent:
                 self._urgent += 1
+            self._waiting += 1
             try:
                 while self._owner is not None or (self._urgent and not urgent):
                     self._cond.wait()
             finally:
+                self._waiting -= 1
                 if urgent:
                     self._urgent -= 1
                     # Ordinary waiters may go once no urgent one is left.
-                    self._cond.notify_all()
+                    if self._waiting:
+                        self._cond.notify_all()
             self._owner = me
-        try:
-            yield
-        finally:
-            with self._cond:
-                self._owner = None
+
+    def release(self) -> None:
+        with self._mutex:
+            self._owner = None
+            if self._waiting:
                 self._cond.notify_all()
 
 
@@ -72,6 +92,15 @@ class AsyncPriorityLock:
 
     @asynccontextmanager
     async def hold(self, *, urgent: bool = False) -> AsyncIterator[None]:
+        await self.acquire(urgent=urgent)
+        try:
+            yield
+        finally:
+            self._release()
+
+    async def acquire(self, *, urgent: bool = False) -> None:
+        """Take the lock; pair with :meth:`release` (:meth:`hold` does both). A cancelled
+        wait leaves the lock as it was."""
         me = asyncio.current_task()
         if self._held and me is not None and self._owner is me:
             raise UsageError(_REENTRY)
@@ -90,10 +119,18 @@ class AsyncPriorityLock:
         else:
             self._held = True
         self._owner = me
-        try:
-            yield
-        finally:
-            self._release()
+
+    def try_acquire(self) -> bool:
+        """Take the lock if it is free, without waiting (no coroutine to run); False if it
+        is held (then await :meth:`acquire`)."""
+        if self._held:
+            return False
+        self._held = True
+        self._owner = asyncio.current_task()
+        return True
+
+    def release(self) -> None:
+        self._release()
 
     def _release(self) -> None:
         self._owner = None

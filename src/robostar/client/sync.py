@@ -10,14 +10,14 @@ from typing import Any, Self, TypeVar, cast
 
 from robostar.client._sync_face import SyncOperations
 from robostar.client.core import DRAIN_READS, ClientBase, Settings, check_keepalive
-from robostar.client.driver import command_plan
+from robostar.client.driver import command_plan, decode, is_plain_answer
 from robostar.client.exchange import Exchange, Outcome, Progress
 from robostar.client.jog import Jog, jog_start
 from robostar.client.locks import PriorityLock
 from robostar.client.plan import Call, Effect, Plan, run_plan
 from robostar.client.trace import TraceTarget
 from robostar.commands.base import Command
-from robostar.errors import PortError, RobostarError, UsageError
+from robostar.errors import MalformedAnswerError, PortError, RobostarError, UsageError
 from robostar.transport import Transport, transport_for_url
 from robostar.types import JogDirection, MotionType
 
@@ -126,16 +126,29 @@ class Client(SyncOperations, ClientBase):
         self, command: Command[R], progress: Progress | None = None, *, urgent: bool = False
     ) -> R:
         """Run one command (its retries and KD follow-up included) while holding the line."""
-        with self._lock.hold(urgent=urgent):
-            self._ensure_open()
+        lock = self._lock
+        lock.acquire(urgent=urgent)
+        try:
+            if not self.transport.is_open:
+                self._ensure_open()
+            outcome = self._exchange(command, progress)
+            if is_plain_answer(command, outcome):
+                # The usual case, decoded at once: the rules have nothing to add to a clean
+                # answer that decodes. Anything else goes through them (command_plan).
+                try:
+                    return decode(command, outcome.packets)
+                except MalformedAnswerError:
+                    pass
             plan = command_plan(command, self._policy)
             request = next(plan)  # the rules always ask for the command first
             while True:
-                outcome = self._exchange(request, progress if request is command else None)
                 try:
                     request = plan.send(outcome)
                 except StopIteration as done:
                     return cast(R, done.value)
+                outcome = self._exchange(request, progress if request is command else None)
+        finally:
+            lock.release()
 
     # -- the line -------------------------------------------------------------------------
     def _exchange(self, command: Command[Any], progress: Progress | None) -> Outcome:
@@ -143,14 +156,15 @@ class Client(SyncOperations, ClientBase):
         link says the exchange is over (see core.ClientBase for the rules it shares)."""
         transport = self.transport
         traced = self._trace is not None
-        exchange = Exchange(self._link, command, progress)
+        link = self._link
+        exchange = Exchange(link, command, progress)
         written = False
         clock = time.monotonic
         try:
             self._drain()
             exchange.start(clock())
             while True:
-                out = exchange.output()
+                out = link.data_to_send()  # exchange.output(), without the call
                 if out:
                     written = True
                     if traced:
@@ -158,7 +172,10 @@ class Client(SyncOperations, ClientBase):
                     transport.write(out)
                 if exchange.done:
                     return exchange.outcome()
-                data = transport.read(max(exchange.deadline() - clock(), 0.0))
+                deadline = link.next_deadline()
+                if deadline is None:
+                    deadline = exchange.deadline()  # raises: the link must be timing a wait
+                data = transport.read(max(deadline - clock(), 0.0))
                 if data:
                     if traced:
                         self._traced_received(data)

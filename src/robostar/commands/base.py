@@ -153,7 +153,8 @@ class Command(ABC, Generic[T]):
 
     def single(self, packets: Sequence[bytes]) -> Reader:
         """The Reader over a SINGLE exchange's only packet."""
-        self.expect_packets(packets, 1)
+        if len(packets) != 1:
+            self.expect_packets(packets, 1)  # raises
         return self.reader(packets[0])
 
     def bare_flags(self, packets: Sequence[bytes]) -> None:
@@ -310,4 +311,12 @@ def read_axes(
     reader: Reader, count: int, field: str = "", width: int = COORD_WIDTH
 ) -> tuple[float, ...]:
     """Read ``count`` axis values written by :func:`encode_axes`."""
-    return tuple(reader.coord(_axis_field(field, axis), width) for axis in range(1, count + 1))
+    names = _AXIS_NAMES if not field and count <= len(_AXIS_NAMES) else None
+    if names is None:
+        names = tuple(_axis_field(field, axis) for axis in range(1, count + 1))
+    coord = reader.coord
+    return tuple([coord(names[i], width) for i in range(count)])
+
+
+_AXIS_NAMES = tuple(_axis_field("", axis) for axis in range(1, 7))
+"""The field names of up to six plain axis values, made once."""

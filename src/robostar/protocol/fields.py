@@ -12,7 +12,7 @@ import enum
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TypeVar
+from typing import TypeVar, cast
 
 from robostar.errors import FieldError
 from robostar.types import ChannelStatus
@@ -154,10 +154,14 @@ def encode_text(command: str, field: str, text: str, width: int, *, align: str =
     return raw.ljust(width) if align == "<" else raw.rjust(width)
 
 
+_INT_TEXT = re.compile(r"[+-]?\d+")
+_COORD_TEXT = re.compile(r"[+-]?(\d+(\.\d{0,3})?|\.\d{1,3})")
+
+
 def parse_int(command: str, field: str, raw: bytes, *, flag: int = FLAG_REJECTED) -> int:
     """An integer field, space- or zero-padded."""
     text = raw.decode("ascii", "replace").strip()
-    if not re.fullmatch(r"[+-]?\d+", text):
+    if not _INT_TEXT.fullmatch(text):
         raise FieldError(command, field, f"{raw!r} is not an integer", flag=flag)
     return int(text)
 
@@ -168,7 +172,7 @@ def parse_coord(command: str, field: str, raw: bytes, *, fixed: bool = True) -> 
     must fit the width, as a sender could have sent it; a free-width field (GR's float, the
     rest of its answer) takes whatever width the number has."""
     text = raw.decode("ascii", "replace").strip()
-    if not re.fullmatch(r"[+-]?(\d+(\.\d{0,3})?|\.\d{1,3})", text):
+    if not _COORD_TEXT.fullmatch(text):
         raise FieldError(command, field, f"{raw!r} is not a number with up to 3 decimals")
     value = float(text)
     if fixed and len(f"{value:.3f}") > len(raw):
@@ -316,6 +320,11 @@ class FileName:
         return encode_text(command, field, str(self), width, align=align)
 
 
+_ENUM_VALUES: dict[type[enum.IntEnum], tuple[int, int, dict[int, enum.IntEnum]]] = {}
+"""The lowest and highest value of each IntEnum a Reader has read, and its members by value
+(``kind(value)`` without the enum machinery; enums are fixed)."""
+
+
 class Reader:
     """Reads a request's or answer's fields in order, naming each one in its errors."""
 
@@ -331,15 +340,17 @@ class Reader:
         return len(self.data) - self.pos
 
     def take(self, n: int, field: str) -> bytes:
-        if self.remaining < n:
+        pos = self.pos
+        end = pos + n
+        data = self.data
+        if end > len(data):
             raise FieldError(
                 self.command,
                 field,
                 f"needs {n} bytes, only {self.remaining} left",
             )
-        raw = self.data[self.pos : self.pos + n]
-        self.pos += n
-        return raw
+        self.pos = end
+        return data[pos:end]
 
     def rest(self) -> bytes:
         raw = self.data[self.pos :]
@@ -347,7 +358,11 @@ class Reader:
         return raw
 
     def byte(self, field: str) -> int:
-        return self.take(1, field)[0]
+        pos = self.pos
+        if pos >= len(self.data):
+            return self.take(1, field)[0]  # raises the take's FieldError
+        self.pos = pos + 1
+        return self.data[pos]
 
     def code(self, field: str, lo: int, hi: int, *, flag: int = FLAG_REJECTED) -> int:
         """A one-byte ASCII digit in ``lo..hi``."""
@@ -357,12 +372,16 @@ class Reader:
         return check_range(self.command, field, int(raw), lo, hi, flag=flag)
 
     def enum(self, field: str, kind: type[_E], *, flag: int = FLAG_REJECTED) -> _E:
-        values = [int(v) for v in kind]
-        value = self.code(field, min(values), max(values), flag=flag)
-        try:
-            return kind(value)
-        except ValueError:
-            raise FieldError(self.command, field, f"{value} is not valid", flag=flag) from None
+        known = _ENUM_VALUES.get(kind)
+        if known is None:
+            values = [int(v) for v in kind]
+            known = _ENUM_VALUES[kind] = (min(values), max(values), {int(v): v for v in kind})
+        lo, hi, members = known
+        value = self.code(field, lo, hi, flag=flag)
+        member = members.get(value)
+        if member is None:
+            raise FieldError(self.command, field, f"{value} is not valid", flag=flag)
+        return cast(_E, member)
 
     def channel(self, field: str = "channel") -> int:
         """The wire's ``'0'..'2'`` as pendant channel 1-3."""
@@ -399,7 +418,7 @@ class Reader:
 
     def end(self) -> None:
         """Fail if bytes are left over."""
-        if self.remaining:
+        if len(self.data) > self.pos:
             raise FieldError(
                 self.command, "packet", f"{self.remaining} unexpected bytes at the end"
             )

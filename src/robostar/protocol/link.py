@@ -16,8 +16,9 @@ from __future__ import annotations
 import enum
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import ClassVar
 
-from robostar.errors import LinkRuleError, MalformedAnswerError, UsageError
+from robostar.errors import LinkRuleError, UsageError
 from robostar.protocol.fields import FLAG_END, FLAG_OK
 from robostar.protocol.frame import (
     ACK,
@@ -71,6 +72,10 @@ class Role(enum.Enum):
     HOST = "host"
     CONTROLLER = "controller"
 
+    # Members are singletons compared by identity: hash them so too (in C), not by name in
+    # Python (Enum.__hash__), since every dispatch looks one up.
+    __hash__ = object.__hash__
+
 
 class State(enum.Enum):
     # host
@@ -90,6 +95,8 @@ class State(enum.Enum):
     UPLOAD_WAIT_PACKET = "UPLOAD_WAIT_PACKET"
     UPLOAD_HANDLING = "UPLOAD_HANDLING"
 
+    __hash__ = object.__hash__  # identity, as Role's
+
 
 class Input(enum.Enum):
     # from the line
@@ -106,6 +113,8 @@ class Input(enum.Enum):
     SEND_ANSWER = "send_answer"
     ACCEPT_UPLOAD = "accept_upload"
     ABORT = "abort"
+
+    __hash__ = object.__hash__  # identity, as Role's
 
 
 _APP_INPUTS = frozenset(
@@ -314,6 +323,12 @@ or a second request right behind a request must not pull the exchange from under
 If the held input shows that the peer moved on (an RST, a new request, any packet), the
 application's packet is not sent at all (see ``Link._peer_moved_on``)."""
 
+_NOT_BUSY = frozenset((State.IDLE, State.RESYNC))
+"""A host link's states outside an exchange (:attr:`Link.busy` is False in them)."""
+
+_COMPLETE = ExchangeComplete()
+"""ExchangeComplete has no fields: every one equals every other, so one will do."""
+
 _CONTROL_INPUT = {
     ControlKind.ACK: Input.ACK,
     ControlKind.NAK: Input.NAK,
@@ -328,6 +343,19 @@ class Link:
 
     role: Role
     _idle: State
+    _handlers: ClassVar[dict[tuple[State, Input], _Handler]] = {}
+    """This class's rows of :data:`TRANSITIONS`, each with its handler function (made once per
+    class, so that a dispatch is one dictionary lookup)."""
+
+    def __init_subclass__(cls, **kwargs: object) -> None:
+        super().__init_subclass__(**kwargs)
+        role = getattr(cls, "role", None)
+        if role is not None:
+            cls._handlers = {
+                (state, what): getattr(cls, name)
+                for (row_role, state, what), name in TRANSITIONS.items()
+                if row_role is role
+            }
 
     def __init__(self, *, timeout: float = 2.0, resend_gap: float = 0.25):
         self.timeout = timeout
@@ -360,7 +388,8 @@ class Link:
         """Feed bytes from the line."""
         self._now = now
         self._backlog.extend(self.decoder.feed(data))
-        self._take_backlog()
+        if self._backlog:
+            self._take_backlog()
         return self._take_events()
 
     def data_to_send(self) -> bytes:
@@ -386,7 +415,8 @@ class Link:
         """End the current exchange at once by sending RST (Ctrl-C, a jog that must stop)."""
         self._now = now
         self._fire(Input.ABORT, b"")
-        self._take_backlog()
+        if self._backlog:
+            self._take_backlog()
         return self._take_events()
 
     @property
@@ -406,12 +436,13 @@ class Link:
             self._dispatch_frame(self._backlog.pop(0))
 
     def _dispatch_frame(self, event: FrameEvent) -> None:
+        if isinstance(event, Packet):  # the usual event first
+            self._fire(Input.PACKET, event.data)
+            return
         if isinstance(event, CorruptPacket):
             self.corrupt_frames += 1
             self.last_corrupt = event.reason
-        if isinstance(event, Packet):
-            self._fire(Input.PACKET, event.data)
-        elif isinstance(event, Control):
+        if isinstance(event, Control):
             self._fire(_CONTROL_INPUT[event.kind], b"")
         elif event.reason is CorruptReason.TRUNCATED:
             # A frame cut short by a new STX needs no NAK: the next frame is already arriving,
@@ -422,14 +453,13 @@ class Link:
             self._fire(Input.CORRUPT, event.raw)
 
     def _fire(self, what: Input, data: bytes) -> None:
-        name = TRANSITIONS.get((self.role, self.state, what))
-        if name is None:
+        handler = self._handlers.get((self.state, what))
+        if handler is None:
             error = LinkRuleError(self.role.value, self.state.value, what.value)
             if what in _APP_INPUTS:
                 raise error
             self._rule_broken(error)
             return
-        handler: _Handler = getattr(type(self), name)
         handler(self, data)
 
     def _take_events(self) -> list[LinkEvent]:
@@ -442,7 +472,10 @@ class Link:
         self._events.append(event)
 
     def _send_packet(self, data: bytes, *, fresh: bool = True) -> None:
-        frame = encode_packet(data)
+        self._send_frame(encode_packet(data), fresh=fresh)
+
+    def _send_frame(self, frame: bytes, *, fresh: bool = True) -> None:
+        """Send a packet already framed (by :func:`encode_packet`)."""
         self._out += frame
         self._last_sent = frame
         if fresh:
@@ -647,21 +680,24 @@ class HostLink(Link):
         self._pending_once = once
         self._pending_max = max_packets
         self._fire(Input.SEND_REQUEST, data)
-        self._take_backlog()
+        if self._backlog:
+            self._take_backlog()
         return self._take_events()
 
     def send_upload_line(self, body: bytes, now: float) -> list[LinkEvent]:
         """FB: send one content packet (``0x30`` + body) after :class:`UploadReady`."""
         self._now = now
         self._fire(Input.SEND_LINE, body)
-        self._take_backlog()
+        if self._backlog:
+            self._take_backlog()
         return self._take_events()
 
     def send_upload_end(self, now: float) -> list[LinkEvent]:
         """FB: send the closing 0x34 packet; a lone ACK completes the upload."""
         self._now = now
         self._fire(Input.SEND_END, b"")
-        self._take_backlog()
+        if self._backlog:
+            self._take_backlog()
         return self._take_events()
 
     # -- handlers --------------------------------------------------------------------------
@@ -692,8 +728,12 @@ class HostLink(Link):
         self._arm(self.timeout)
 
     def _arm(self, seconds: float) -> None:
-        super()._arm(seconds)
-        self._clamp()
+        # Link._arm, then _clamp, inline: every request and every answer arms a timer.
+        deadline = self._now + seconds
+        limit = self._limit_at
+        if limit is not None and deadline > limit and self.state not in _NOT_BUSY:
+            deadline = limit
+        self._deadline = deadline
 
     def _extend(self, seconds: float) -> None:
         super()._extend(seconds)
@@ -707,7 +747,9 @@ class HostLink(Link):
 
     def _finish(self, event: LinkEvent) -> None:
         self._limit_at = None
-        super()._finish(event)
+        self._deadline = None  # Link._finish, inline: every exchange ends here
+        self.state = self._idle
+        self._events.append(event)
 
     def _fail(
         self,
@@ -800,13 +842,13 @@ class HostLink(Link):
         return True
 
     def _ack(self, data: bytes) -> None:
-        self._send_control(ACK)
+        self._out.append(ACK)
         self._last_received = data
         self._last_ack_at = self._now
 
     def _h_answer(self, data: bytes) -> None:
-        self._good_packet()
-        if self._is_resend(data):
+        self._corrupt = 0  # _good_packet(), inline
+        if data == self._last_received and self._is_resend(data):
             self._ack(data)
             self._emit(Ignored("resent answer (ACKed again)", self.state))
             if self.state is State.WAIT_ANSWER and not self._send_once:
@@ -816,7 +858,7 @@ class HostLink(Link):
             # Never shorten the wait: in WAIT_SECOND it runs to the announced work time.
             self._extend(self.timeout + self.resend_grace)
             return
-        if data == self._last_received and any(isinstance(e, Packet) for e in self._backlog):
+        if data == self._last_received and self._backlog and _holds_packet(self._backlog):
             # A copy of the packet we ACKed last with another packet right behind it, in the
             # same read: the controller sent it without waiting for an ACK, which a controller
             # answering us never does (it sends the next packet only after our ACK, and
@@ -839,13 +881,13 @@ class HostLink(Link):
         self._ack(data)
         if flag in _ERROR_FLAGS:
             self._emit(AnswerReceived(data, flag, final=True))
-            self._finish(ExchangeComplete())
+            self._finish(_COMPLETE)
             return
         shape = self.shape
         if shape is Shape.MULTI:
             if flag == FLAG_END:
                 self._emit(AnswerReceived(data, flag, final=True))
-                self._finish(ExchangeComplete())
+                self._finish(_COMPLETE)
             else:
                 self._emit(AnswerReceived(data, flag, final=False))
                 self.state = State.WAIT_MORE
@@ -876,7 +918,7 @@ class HostLink(Link):
             self._arm(wait + self.timeout + self.resend_grace)
             return
         self._emit(AnswerReceived(data, flag, final=True))
-        self._finish(ExchangeComplete())
+        self._finish(_COMPLETE)
 
     def _h_timeout(self, data: bytes) -> None:
         if self.state is State.WAIT_ANSWER and self._maybe_answer:
@@ -884,7 +926,7 @@ class HostLink(Link):
             # resend: nothing else came, so it was a slow controller's answer after all.
             answer, self._maybe_answer = self._maybe_answer, b""
             self._emit(AnswerReceived(answer, _flag_of(answer), final=True))
-            self._finish(ExchangeComplete())
+            self._finish(_COMPLETE)
             return
         if self._limit_at is not None and self._now >= self._limit_at:
             detail = "the exchange ran past its overall limit"
@@ -897,7 +939,7 @@ class HostLink(Link):
 
     def _h_upload_reply(self, data: bytes) -> None:
         self._good_packet()
-        if data == self._last_reply and any(isinstance(e, Packet) for e in self._backlog):
+        if data == self._last_reply and self._backlog and _holds_packet(self._backlog):
             # Two replies in one read: the controller answers each packet once, so the first,
             # a copy of its previous reply, is a repeat and accepts nothing.
             self._emit(Ignored("a repeat of the last reply, sent without waiting", self.state))
@@ -910,7 +952,7 @@ class HostLink(Link):
             self._emit(UploadReady(data))
         elif flag in _ERROR_FLAGS:
             self._emit(AnswerReceived(data, flag, final=True))
-            self._finish(ExchangeComplete())
+            self._finish(_COMPLETE)
         else:
             self._rule_broken(
                 LinkRuleError("host", self.state.value, "packet", f"upload reply {data!r}")
@@ -931,7 +973,7 @@ class HostLink(Link):
         self._arm(self.timeout)
 
     def _h_upload_done(self, data: bytes) -> None:
-        self._finish(ExchangeComplete())
+        self._finish(_COMPLETE)
 
     def _h_upload_final_reply(self, data: bytes) -> None:
         # The controller could not store the file: an error answer in place of the ACK.
@@ -939,7 +981,7 @@ class HostLink(Link):
         flag = _flag_of(data)
         if flag in _ERROR_FLAGS:
             self._emit(AnswerReceived(data, flag, final=True))
-            self._finish(ExchangeComplete())
+            self._finish(_COMPLETE)
         else:
             self._rule_broken(
                 LinkRuleError("host", self.state.value, "packet", f"{data!r} in place of ACK")
@@ -955,7 +997,7 @@ class ControllerLink(Link):
     def __init__(self, *, timeout: float = 2.0, max_resends: int = MAX_RESENDS):
         super().__init__(timeout=timeout)
         self.max_resends = max_resends
-        self._queue: list[bytes] = []
+        self._queue: list[bytes] = []  # the answer's later packets, framed
         self._after = After.DONE
 
     # -- application calls -----------------------------------------------------------------
@@ -963,20 +1005,22 @@ class ControllerLink(Link):
         """Answer the current request (or upload packet) with one or more packets' data."""
         if not packets:
             raise UsageError("send_answer: packets must hold at least one packet")
-        for data in packets:
-            # Later packets go out only after ACKs; refuse a bad one now, before any is sent.
-            encode_packet(data)
+        # Later packets go out only after ACKs; refuse a bad one now, before any is sent (and
+        # keep the frames: each is sent as framed here).
+        frames = [encode_packet(data) for data in packets]
         self._now = now
-        self._pending = (list(packets), after)
+        self._pending = (frames, after)
         self._fire(Input.SEND_ANSWER, b"")
-        self._take_backlog()
+        if self._backlog:
+            self._take_backlog()
         return self._take_events()
 
     def accept_upload(self, now: float) -> list[LinkEvent]:
         """FB: the closing 0x34 was stored; answer with a lone ACK."""
         self._now = now
         self._fire(Input.ACCEPT_UPLOAD, b"")
-        self._take_backlog()
+        if self._backlog:
+            self._take_backlog()
         return self._take_events()
 
     # -- handlers --------------------------------------------------------------------------
@@ -988,10 +1032,10 @@ class ControllerLink(Link):
     def _c_send_answer(self, data: bytes) -> None:
         if self._peer_moved_on():
             return
-        packets, after = self._pending
-        self._queue = packets[1:]
+        frames, after = self._pending
+        self._queue = frames[1:]
         self._after = after
-        self._send_packet(packets[0])
+        self._send_frame(frames[0])
         self._after_send()
 
     def _after_send(self) -> None:
@@ -1002,18 +1046,18 @@ class ControllerLink(Link):
             self.state = State.UPLOAD_WAIT_PACKET
             self._arm(self.timeout)
         else:  # FINAL
-            self._finish(ExchangeComplete())
+            self._finish(_COMPLETE)
 
     def _c_acked(self, data: bytes) -> None:
         if self._queue:
-            self._send_packet(self._queue.pop(0))
+            self._send_frame(self._queue.pop(0))
             self._after_send()
         elif self._after is After.SECOND_PHASE:
             self.state = State.WORKING
             self._after = After.DONE
             self._deadline = None
         else:
-            self._finish(ExchangeComplete())
+            self._finish(_COMPLETE)
 
     def _c_ack_timeout(self, data: bytes) -> None:
         if self._resends < self.max_resends:
@@ -1030,7 +1074,7 @@ class ControllerLink(Link):
             self._rule_broken(LinkRuleError("controller", self.state.value, "non-request packet"))
             return
         if self.state is State.WAIT_ACK and not self._queue and self._after is After.DONE:
-            self._finish(ExchangeComplete())
+            self._finish(_COMPLETE)
         else:
             self._fail(FailReason.SUPERSEDED, "a new request arrived", send_rst=False)
         self._c_request(data)
@@ -1061,15 +1105,18 @@ class ControllerLink(Link):
         if self._peer_moved_on():
             return
         self._send_control(ACK)
-        self._finish(ExchangeComplete())
+        self._finish(_COMPLETE)
+
+
+def _holds_packet(backlog: list[FrameEvent]) -> bool:
+    return any(isinstance(e, Packet) for e in backlog)
 
 
 def _flag_of(data: bytes) -> int:
-    """An answer packet's flag, or -1 when the packet is too short to hold one."""
-    try:
-        return split_answer(data).flag
-    except MalformedAnswerError:
-        return -1
+    """An answer packet's flag, or -1 when the packet is too short to hold one (as
+    :func:`~robostar.protocol.packets.split_answer` reads it: a leading FF is the dummy)."""
+    offset = 1 if data[:1] == b"\xff" else 0
+    return data[offset] if len(data) > offset else -1
 
 
 def announced_wait(data: bytes) -> float | None:

@@ -20,12 +20,13 @@ import selectors
 import socket
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from types import TracebackType
 from typing import Protocol, Self, runtime_checkable
 
 from robostar.errors import PortError, UsageError
-from robostar.protocol.frame import ETX, NAK, RST, STX
+from robostar.protocol.frame import ETX, NAK, RST, lrc
 from robostar.serving.address import check_host, check_port, tcp_url
 from robostar.transport.peer import BytePeer
 
@@ -72,14 +73,21 @@ class SessionSource(Protocol):
 
 def _take_disconnect(peer: object) -> bool:
     """Whether a fault injector anywhere in the chain of wrapped peers cut the line."""
+    return any(take() for take in _disconnect_takers(peer))
+
+
+def _disconnect_takers(peer: object) -> tuple[Callable[[], bool], ...]:
+    """The ``take_disconnect`` of every peer in the chain of wrapped peers (the chain is set
+    when the line opens, so a line asks once)."""
+    takers = []
     for _ in range(16):
         take = getattr(peer, "take_disconnect", None)
-        if callable(take) and take():
-            return True
+        if callable(take):
+            takers.append(take)
         peer = getattr(peer, "peer", None)
         if peer is None:
             break
-    return False
+    return tuple(takers)
 
 
 class _LineTail:
@@ -99,17 +107,37 @@ class _LineTail:
         self.xor = 0
 
     def feed(self, data: bytes) -> None:
-        for byte in data:
+        # Byte by byte: after ETX the next byte is the LRC, whatever it is; STX (re)starts a
+        # packet; inside one, every other byte counts in the XOR; between packets, nothing
+        # but STX matters. Runs between those bytes are taken whole.
+        i = 0
+        n = len(data)
+        while i < n:
             if self.in_lrc:
                 self.in_lrc = False
-            elif byte == STX:
+                i += 1
+            elif self.in_packet:
+                etx = data.find(b"\x03", i)
+                stx = data.find(b"\x02", i)
+                stop = n if etx < 0 else etx
+                if 0 <= stx < stop:
+                    stop = stx
+                self.xor ^= lrc(data[i:stop])
+                if stop == n:
+                    return
+                if stop == stx:
+                    self.xor = 0
+                else:
+                    self.in_packet = False
+                    self.in_lrc = True
+                i = stop + 1
+            else:
+                stx = data.find(b"\x02", i)
+                if stx < 0:
+                    return
                 self.in_packet = True
                 self.xor = 0
-            elif self.in_packet and byte == ETX:
-                self.in_packet = False
-                self.in_lrc = True
-            elif self.in_packet:
-                self.xor ^= byte
+                i = stx + 1
 
     def closing_bytes(self) -> bytes:
         """Bytes that end the current fragment as a corrupt packet (empty between packets)."""
@@ -134,6 +162,8 @@ class _Stream:
     def __init__(self, name: str) -> None:
         self.name = name
         self.out = bytearray()
+        self.writing = False
+        """Registered for EVENT_WRITE too (bytes wait in :attr:`out`)."""
 
     def fileno(self) -> int:
         raise NotImplementedError
@@ -226,6 +256,8 @@ class _Line:
     current: _Stream | None = None
     tail: _LineTail = field(default_factory=lambda: _LineTail())
     hide_reaction: bool = False
+    takers: tuple[Callable[[], bool], ...] | None = None
+    """The peer chain's ``take_disconnect`` methods, found on first use."""
 
 
 class PeerHost:
@@ -505,7 +537,11 @@ class PeerHost:
                         return
                 line.current = stream
                 line.tail.feed(data)
-                self._pump_line(line)
+                if not line.owned:
+                    # A shared line answers the stream that wrote last: answer this one now.
+                    # A session's own line is pumped once this pass's events are handled
+                    # (PeerHost._run), not twice.
+                    self._pump_line(line)
         if mask & selectors.EVENT_WRITE:
             self._flush(stream)
 
@@ -538,7 +574,10 @@ class PeerHost:
         with self.lock:
             if not self._guard(line, lambda: got.append(line.peer.data_to_send(time.monotonic()))):
                 return
-            cut = _take_disconnect(line.peer)
+            takers = line.takers
+            if takers is None:
+                takers = line.takers = _disconnect_takers(line.peer)
+            cut = any(take() for take in takers) if takers else False
         out = got[0]
         if out and line.hide_reaction:
             line.hide_reaction = False
@@ -573,8 +612,12 @@ class PeerHost:
                 log.warning("simulator %s: %s does not read; dropped", self.name, stream.name)
                 self._drop(stream)
                 return
-        events = selectors.EVENT_READ | (selectors.EVENT_WRITE if stream.out else 0)
-        self._selector.modify(stream.fileno(), events, self._selector.get_key(stream.fileno()).data)
+        writing = bool(stream.out)
+        if writing is not stream.writing:
+            stream.writing = writing
+            events = selectors.EVENT_READ | (selectors.EVENT_WRITE if writing else 0)
+            key = self._selector.get_key(stream.fileno())
+            self._selector.modify(stream.fileno(), events, key.data)
 
     def _drop(self, stream: _Stream) -> None:
         """Close one stream: its session ends; on a shared line, leave the line clean."""

@@ -84,10 +84,20 @@ class Dialect:
     wait: Chunk | None = None
     """Rewrites DB/DC's announced wait (2 digits)."""
 
+    @property
+    def plain(self) -> bool:
+        """No rewrite at all (the manual's own format): :meth:`dress` returns the packets."""
+        return (
+            self.coords is None
+            and self.wait is None
+            and self.fa_first is None
+            and not self.wide_float
+        )
+
     def dress(self, command: Command[Any], packets: Sequence[bytes]) -> list[bytes]:
         """The answer packets as this dialect writes them."""
         out = list(packets)
-        if not out:
+        if not out or self.plain:
             return out
         if isinstance(command, DownloadFile):
             return self._download(out)

@@ -277,18 +277,20 @@ class ModelBase:
 
     # -- status and position -------------------------------------------------------------------
     def status(self) -> tuple[ChannelStatus, ChannelStatus, ChannelStatus]:
-        out = [ChannelStatus() for _ in range(3)]
+        # Through the status byte: ChannelStatus.from_byte hands out the instances made once.
+        bits = [0, 0, 0]
         for ch in self.channels:
             alarm = self.alarms.on_channel(ch.number)
-            out[ch.number - 1] = ChannelStatus(
-                servo_on=ch.servo,
-                origin=ch.origin,
-                alarm=alarm,
-                ready=not alarm,
-                in_position=ch.servo and not ch.moving,
-                running=ch.running,
+            bits[ch.number - 1] = (
+                (0x20 if ch.servo else 0)
+                | (0x10 if ch.origin else 0)
+                | (0x08 if alarm else 0)
+                | (0 if alarm else 0x04)
+                | (0x02 if ch.servo and not ch.moving else 0)
+                | (0x01 if ch.running else 0)
             )
-        return out[0], out[1], out[2]
+        from_byte = ChannelStatus.from_byte
+        return from_byte(bits[0]), from_byte(bits[1]), from_byte(bits[2])
 
     def position(self, number: int, kind: PositionKind) -> Position:
         ch = self.channel(number)

@@ -30,10 +30,48 @@ class LineProtocol(asyncio.Protocol):
     def __init__(self) -> None:
         self.buffer = bytearray()
         self.waiter: asyncio.Future[None] | None = None
+        self.deadline = 0.0  # the waiter's, in the loop's time
         self.lost = False
         self.lost_reason: BaseException | None = None
         self.paused = False
         self.drained: asyncio.Future[None] | None = None
+        self._timer: asyncio.TimerHandle | None = None
+        self._timer_at = 0.0
+
+    def wait_until(self, loop: asyncio.AbstractEventLoop, deadline: float) -> asyncio.Future[None]:
+        """A new waiter, woken by data, a lost line or ``deadline`` (loop time).
+
+        One timer serves every read: it stays armed from one read to the next and, when it
+        fires before the current waiter's deadline, sets itself again for it. A read a few
+        microseconds after the last one (the usual case: a reply timeout of seconds) then
+        schedules and cancels no timer of its own.
+        """
+        waiter = self.waiter = loop.create_future()
+        self.deadline = deadline
+        timer = self._timer
+        if timer is None or self._timer_at > deadline:
+            if timer is not None:
+                timer.cancel()
+            self._timer_at = deadline
+            self._timer = loop.call_at(deadline, self._time_up, loop)
+        return waiter
+
+    def _time_up(self, loop: asyncio.AbstractEventLoop) -> None:
+        self._timer = None
+        waiter = self.waiter
+        if waiter is None or waiter.done():
+            return
+        if self.deadline <= self._timer_at:
+            waiter.set_result(None)
+        else:  # a later read's deadline: wait on for it
+            self._timer_at = self.deadline
+            self._timer = loop.call_at(self.deadline, self._time_up, loop)
+
+    def disarm(self) -> None:
+        """Cancel the timer (the line is closing)."""
+        timer, self._timer = self._timer, None
+        if timer is not None:
+            timer.cancel()
 
     def _wake(self) -> None:
         waiter = self.waiter
@@ -63,11 +101,6 @@ class LineProtocol(asyncio.Protocol):
             drained.set_result(None)
 
 
-def _time_up(waiter: asyncio.Future[None]) -> None:
-    if not waiter.done():
-        waiter.set_result(None)
-
-
 class _ProtocolTransport(AsyncTransport):
     """A line driven through :class:`LineProtocol`; subclasses say how to connect."""
 
@@ -88,7 +121,10 @@ class _ProtocolTransport(AsyncTransport):
             self._transport, self._protocol = await self._connect()
 
     async def close(self) -> None:
-        transport, self._transport, self._protocol = self._transport, None, None
+        transport, self._transport = self._transport, None
+        protocol, self._protocol = self._protocol, None
+        if protocol is not None:
+            protocol.disarm()
         if transport is not None:
             transport.close()
             # Let the transport finish closing (its connection_lost runs on the next turns).
@@ -123,12 +159,9 @@ class _ProtocolTransport(AsyncTransport):
             raise self._closed_error()
         if not protocol.buffer and not protocol.lost and timeout > 0:
             loop = asyncio.get_running_loop()
-            waiter = protocol.waiter = loop.create_future()
-            timer = loop.call_later(timeout, _time_up, waiter)
             try:
-                await waiter
+                await protocol.wait_until(loop, loop.time() + timeout)
             finally:
-                timer.cancel()
                 protocol.waiter = None
         if protocol.buffer:
             data = bytes(protocol.buffer)

@@ -83,8 +83,16 @@ class TcpTransport(Transport):
         sock = self._sock
         if sock is None:
             raise self._closed_error()
-        view = memoryview(data)
+        if not data:
+            return
         try:
+            try:
+                sent = sock.send(data)
+            except BlockingIOError:
+                sent = 0
+            if sent == len(data):  # the usual case: a packet fits the socket's buffer at once
+                return
+            view = memoryview(data)[sent:]
             while view:
                 try:
                     view = view[sock.send(view) :]
