@@ -125,7 +125,9 @@ class RefuseAllRuleset(SimpleRoleRuleset):
 
 
 class SignInBudget:
-    """At most ``rate`` password checks a second for the whole face, ``burst`` at once.
+    """At most ``rate`` password checks a second for the whole face, ``burst`` at once (each
+    about 50-100 ms of argon2 on the event loop; two a second keep the loop's worst stall at
+    about a jog keepalive's period).
 
     asyncua asks for the user synchronously, on the event loop, and argon2 takes tens of
     milliseconds: without a budget, a few clients trying names would stall every line of the
@@ -133,7 +135,7 @@ class SignInBudget:
     """
 
     def __init__(
-        self, rate: float = 5.0, burst: int = 5, clock: Callable[[], float] = time.monotonic
+        self, rate: float = 2.0, burst: int = 2, clock: Callable[[], float] = time.monotonic
     ) -> None:
         self.rate = rate
         self.burst = burst
