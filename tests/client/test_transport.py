@@ -25,6 +25,7 @@ from robostar.transport import (
     async_transport_for_url,
     open_async_transport,
     open_transport,
+    tcp,
     transport_for_url,
 )
 from robostar.transport.serial_port import port_error
@@ -236,6 +237,27 @@ def test_tcp_round_trip_nodelay_and_lost_connection(
     transport.open()  # a closed transport can be opened again
     transport.write(AA)
     assert transport.read(1.0) == AA
+    transport.close()
+
+
+def test_tcp_read_longer_than_the_kernels_bound(
+    echo_server: tuple[str, int, list[socket.socket]], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A read allowed more than SO_RCVTIMEO (the bound on a blocking recv) waits the rest:
+    nothing arriving is an empty read, and bytes arriving after the bound are still read."""
+    monkeypatch.setattr(tcp, "_RCVTIMEO", 0.01)
+    host, port, accepted = echo_server
+    transport = open_transport(f"tcp://{host}:{port}")
+    assert transport.read(0.05) == b""
+    transport.write(AA)
+    assert transport.read(1.0) == AA
+    later = threading.Timer(0.05, accepted[-1].sendall, args=(AA,))
+    later.start()
+    try:
+        assert transport.read(5.0) == AA
+    finally:
+        later.join()
+    assert transport.is_open
     transport.close()
 
 

@@ -6,6 +6,8 @@ import contextlib
 import math
 import select
 import socket
+import struct
+import sys
 
 from robostar.errors import PortError
 from robostar.transport.base import Transport
@@ -14,6 +16,14 @@ from robostar.transport.url import DEFAULT_TCP_PORT
 __all__ = ["TcpTransport", "tcp_open_error"]
 
 _RECV_SIZE = 4096
+
+_BLOCKING_READS = sys.platform.startswith("linux")
+"""On Linux a read that may wait long blocks in recv() itself, bounded by SO_RCVTIMEO: one
+system call per answer instead of a poll() and a recv(). Elsewhere poll()/select() first."""
+
+_RCVTIMEO = 0.1
+"""The kernel ends a blocking recv() after this many seconds; a read allowed longer waits
+the rest with poll(). Reads allowed less than this poll first."""
 
 
 def tcp_open_error(url: str, exc: OSError) -> PortError:
@@ -46,6 +56,7 @@ class TcpTransport(Transport):
         self.url = url or f"tcp://{host}:{port}"
         self._sock: socket.socket | None = None
         self._poll: select.poll | None = None
+        self._send_flags = 0
 
     @property
     def is_open(self) -> bool:
@@ -59,9 +70,19 @@ class TcpTransport(Transport):
         except OSError as exc:
             raise tcp_open_error(self.url, exc) from exc
         sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-        # Non-blocking once, waiting with select() only when the socket is not ready: a
-        # settimeout() before every call costs system calls on every exchange.
-        sock.setblocking(False)
+        # No settimeout() before every call (it costs system calls on every exchange). On
+        # Linux the socket blocks, each read bounded by SO_RCVTIMEO and each write made
+        # non-blocking by its flag; elsewhere it is non-blocking once, waited on with
+        # select() only when not ready.
+        if _BLOCKING_READS:
+            sock.setblocking(True)
+            whole = int(_RCVTIMEO)
+            timeval = struct.pack("ll", whole, round((_RCVTIMEO - whole) * 1e6))
+            sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVTIMEO, timeval)
+            self._send_flags = socket.MSG_DONTWAIT
+        else:
+            sock.setblocking(False)
+            self._send_flags = 0
         self._sock = sock
         if hasattr(select, "poll"):  # not on Windows: select() there
             self._poll = select.poll()
@@ -85,9 +106,10 @@ class TcpTransport(Transport):
             raise self._closed_error()
         if not data:
             return
+        flags = self._send_flags
         try:
             try:
-                sent = sock.send(data)
+                sent = sock.send(data, flags)
             except BlockingIOError:
                 sent = 0
             if sent == len(data):  # the usual case: a packet fits the socket's buffer at once
@@ -95,7 +117,7 @@ class TcpTransport(Transport):
             view = memoryview(data)[sent:]
             while view:
                 try:
-                    view = view[sock.send(view) :]
+                    view = view[sock.send(view, flags) :]
                 except BlockingIOError:
                     if not select.select([], [sock], [], self.connect_timeout)[1]:
                         raise TimeoutError("the connection stopped taking data") from None
@@ -107,16 +129,25 @@ class TcpTransport(Transport):
         if sock is None:
             raise self._closed_error()
         # Wait first, then read what is there: one poll and one recv per read, and no
-        # exception on the normal path (a recv on an empty non-blocking socket raises).
+        # exception on the normal path (a recv on an empty non-blocking socket raises). A
+        # long wait on Linux is the recv itself (SO_RCVTIMEO bounds it; the rest is polled).
         poller = self._poll
         try:
-            if poller is not None:
-                # poll() counts whole milliseconds: round up, or a wait under 1 ms would spin.
-                if not poller.poll(math.ceil(timeout * 1000) if timeout > 0 else 0):
+            data = None
+            if timeout >= _RCVTIMEO and _BLOCKING_READS:
+                try:
+                    data = sock.recv(_RECV_SIZE)
+                except BlockingIOError:  # nothing for _RCVTIMEO s: wait the rest below
+                    timeout -= _RCVTIMEO
+            if data is None:
+                if poller is not None:
+                    # poll() counts whole milliseconds: round up, or a wait under 1 ms would
+                    # spin.
+                    if not poller.poll(math.ceil(timeout * 1000) if timeout > 0 else 0):
+                        return b""
+                elif not select.select([sock], [], [], max(timeout, 0.0))[0]:
                     return b""
-            elif not select.select([sock], [], [], max(timeout, 0.0))[0]:
-                return b""
-            data = sock.recv(_RECV_SIZE)
+                data = sock.recv(_RECV_SIZE)
         except BlockingIOError:
             return b""
         except OSError as exc:
