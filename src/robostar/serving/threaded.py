@@ -42,6 +42,10 @@ _MAX_PENDING_PTY = 1 << 16
 _IDLE_WAKE = 0.2
 """The loop looks at the peer at least this often, for changes made from other threads."""
 _MIN_WAIT = 0.0002
+_SPIN = 0.0003
+"""A paced line polls without sleeping for the last this-many seconds before a deadline."""
+_SPIN_GRACE = 0.001
+"""How long a paced line may poll past a deadline that does not move before it sleeps again."""
 """Shortest sleep, so a peer whose deadline does not move cannot make the loop spin."""
 _JOIN_TIMEOUT = 10.0
 _ACCEPT_BACKOFF = 0.5
@@ -298,10 +302,9 @@ class PeerHost:
         # A paced line waits in select(), whose timeouts are in microseconds: epoll rounds up
         # to whole milliseconds, which would make paced answers leave late. Unpaced hosts keep
         # epoll (select() cannot take descriptors past 1024, and --count serves many).
+        self._paced = bool(getattr(source, "paced", False))
         self._selector: selectors.BaseSelector = (
-            selectors.SelectSelector()
-            if getattr(source, "paced", False)
-            else selectors.DefaultSelector()
+            selectors.SelectSelector() if self._paced else selectors.DefaultSelector()
         )
         self._wake_r, self._wake_w = socket.socketpair()
         self._wake_r.setblocking(False)
@@ -441,7 +444,15 @@ class PeerHost:
         deadline = min((t for t in times if t is not None), default=None)
         if deadline is None:
             return _IDLE_WAKE
-        return min(max(deadline - time.monotonic(), _MIN_WAIT), _IDLE_WAKE)
+        wait = deadline - time.monotonic()
+        if self._paced and -_SPIN_GRACE < wait <= _SPIN:
+            # A paced line's bytes are due to the microsecond, and a sleep ends late by tens of
+            # them: sleep to just before, then poll until the moment. A deadline that stays in
+            # the past (served, yet not moved) falls back to the shortest sleep below.
+            return 0.0
+        if self._paced and wait > _SPIN:
+            return min(wait - _SPIN, _IDLE_WAKE)
+        return min(max(wait, _MIN_WAIT), _IDLE_WAKE)
 
     def _on_wake(self, mask: int) -> None:
         with contextlib.suppress(OSError):
