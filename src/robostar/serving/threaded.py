@@ -18,6 +18,8 @@ import logging
 import os
 import selectors
 import socket
+import struct
+import sys
 import threading
 import time
 from collections.abc import Callable
@@ -42,6 +44,35 @@ _MAX_PENDING_PTY = 1 << 16
 _IDLE_WAKE = 0.2
 """The loop looks at the peer at least this often, for changes made from other threads."""
 _MIN_WAIT = 0.0002
+_SO_TIMESTAMPNS = 35
+"""Linux's SO_TIMESTAMPNS (SCM_TIMESTAMPNS), which Python's socket module does not name: the
+kernel stamps each received packet with the (real) time it arrived."""
+_STAMP_SPACE = socket.CMSG_SPACE(16) if hasattr(socket, "CMSG_SPACE") else 0
+
+
+def _ask_for_stamps(sock: socket.socket) -> bool:
+    """Ask the kernel to stamp what ``sock`` receives (Linux); False where it cannot."""
+    if not sys.platform.startswith("linux") or not _STAMP_SPACE:
+        return False
+    try:
+        sock.setsockopt(socket.SOL_SOCKET, _SO_TIMESTAMPNS, 1)
+    except OSError:
+        return False
+    return True
+
+
+def _arrival(ancillary: list[tuple[int, int, bytes]]) -> float | None:
+    """The monotonic time a read's bytes arrived, from the kernel's stamp (None if absent or
+    not believable: later than now, or more than a second ago)."""
+    for level, kind, data in ancillary:
+        if level == socket.SOL_SOCKET and kind == _SO_TIMESTAMPNS and len(data) >= 16:
+            seconds, nanoseconds = struct.unpack("qq", data[:16])
+            now_wall, now = time.time(), time.monotonic()
+            arrived = now - (now_wall - (seconds + nanoseconds * 1e-9))
+            return arrived if now - 1.0 < arrived <= now else None
+    return None
+
+
 _SPIN = 0.0003
 """A paced line polls without sleeping for the last this-many seconds before a deadline."""
 _SPIN_GRACE = 0.001
@@ -186,20 +217,29 @@ class _Stream:
 class _TcpStream(_Stream):
     kind = "tcp"
 
-    def __init__(self, sock: socket.socket, name: str) -> None:
+    def __init__(self, sock: socket.socket, name: str, *, stamped: bool = False) -> None:
         super().__init__(name)
         self.sock = sock
+        self.stamped = stamped and _ask_for_stamps(sock)
+        self.arrived: float | None = None
+        """``time.monotonic()`` at which the kernel received the last read's bytes, when the
+        stream is stamped (a paced line): the line's wire time counts from then, not from
+        whenever this thread woke to read them."""
 
     def fileno(self) -> int:
         return self.sock.fileno()
 
     def read(self) -> bytes | None:
         try:
-            return self.sock.recv(_READ_SIZE)
+            if not self.stamped:
+                return self.sock.recv(_READ_SIZE)
+            data, ancillary, _, _ = self.sock.recvmsg(_READ_SIZE, _STAMP_SPACE)
         except (BlockingIOError, InterruptedError):
             return None
         except OSError:
             return b""
+        self.arrived = _arrival(ancillary)
+        return data
 
     def send(self, data: bytes) -> int:
         return self.sock.send(data)
@@ -485,7 +525,7 @@ class PeerHost:
         if sock.family in (socket.AF_INET, socket.AF_INET6):
             # Answers are a few bytes; do not hold them back waiting for more (Nagle).
             sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-        stream = _TcpStream(sock, name)
+        stream = _TcpStream(sock, name, stamped=self._paced)
         log.info("simulator %s: client %s connected", self.name, stream.name)
         self._add_stream(stream)
 
@@ -541,10 +581,14 @@ class PeerHost:
                 self._drop(stream)
                 return
             if data:
+                now = time.monotonic()
+                # a paced line counts the bytes' wire time from their arrival, as a UART would
+                arrived = getattr(stream, "arrived", None)
+                at = arrived if arrived is not None else now
                 with self.lock:
                     if self.source is not None:
-                        self.source.poll(time.monotonic())
-                    if not self._guard(line, line.peer.receive_data, data, time.monotonic()):
+                        self.source.poll(now)
+                    if not self._guard(line, line.peer.receive_data, data, at):
                         return
                 line.current = stream
                 line.tail.feed(data)
