@@ -210,7 +210,7 @@ class Line:
                 else:
                     self.lease.renew(who)
             except RobostarError as exc:
-                self._audit(command, who, f"refused: {exc}")
+                self.record(command, who, f"refused: {exc}")
                 raise
         priority = PRI_STOP if is_stop else PRI_WRITE
         if isinstance(command, JogContinue):
@@ -218,9 +218,9 @@ class Line:
         try:
             result = await self._submit(command, priority, who)
         except BaseException as exc:
-            self._audit(command, who, f"error: {type(exc).__name__}: {exc}")
+            self.record(command, who, f"error: {type(exc).__name__}: {exc}")
             raise
-        self._audit(command, who, "ok")
+        self.record(command, who, "ok")
         if isinstance(command, JogStart):
             self._jogs[command.channel] = who
         elif isinstance(command, JogStop):
@@ -430,14 +430,16 @@ class Line:
         try:
             await self._submit(JogStop(channel), PRI_STOP, None)
         except RobostarError as exc:
-            self._audit(JogStop(channel), who, f"error: lease lost, jog stop failed: {exc}")
+            self.record(JogStop(channel), who, f"error: lease lost, jog stop failed: {exc}")
             raise
-        self._audit(JogStop(channel), who, "jog stopped: lease lost")
+        self.record(JogStop(channel), who, "jog stopped: lease lost")
 
-    def _audit(self, command: Command[Any], who: Who, outcome: str) -> None:
-        self.audit.write(
-            line=self.name, who=who.name, face=who.face, what=_describe(command), outcome=outcome
-        )
+    def record(self, command: Command[Any] | str, who: Who, outcome: str) -> None:
+        """One audit entry for this line: what ``who`` asked (a command, or a name when the
+        request never became one) and how it ended. Faces that refuse a request themselves
+        record it here too."""
+        what = command if isinstance(command, str) else _describe(command)
+        self.audit.write(line=self.name, who=who.name, face=who.face, what=what, outcome=outcome)
 
     # -- the model -------------------------------------------------------------------------
     def _from_model(self, command: Command[Any], max_age: float) -> tuple[Any] | None:

@@ -80,9 +80,7 @@ class OpcUaFace:
     @property
     def address(self) -> str:
         """The endpoint URL (with the real port when the settings asked for port 0)."""
-        port = self.port
-        host = self.settings.host
-        return f"opc.tcp://{f'[{host}]' if ':' in host else host}:{port}/"
+        return self.settings.url(self.port)
 
     @property
     def port(self) -> int:
@@ -141,7 +139,7 @@ class OpcUaFace:
             self.ns.vendor,
             "N1AlarmConditionType",
             ObjectIds.AlarmConditionType,
-            [(name, variant) for name, variant in ALARM_EVENT_FIELDS],
+            list(ALARM_EVENT_FIELDS),
         )
         self._event_type = event_type.nodeid
         for line in self.server.lines.values():
@@ -213,9 +211,8 @@ class OpcUaFace:
         for name, node in nodes.methods.items():
             self.ua.link_method(node, handler_for(line, name, None))
         for channel, ch in nodes.channels.items():
-            for key, node in ch.values.items():
-                if key.startswith("method:"):
-                    self.ua.link_method(node, handler_for(line, key[7:], channel))
+            for name, node in ch.methods.items():
+                self.ua.link_method(node, handler_for(line, name, channel))
         events = EventGenerator(self.ua.iserver.isession)
         await events.init(self._event_type, emitting_node=nodes.system.nodeid)
         publisher = LinePublisher(self.ua, nodes, events, self.ns.robotics, self.ns.vendor)
@@ -253,19 +250,15 @@ class OpcUaFace:
             async for change in changes:
                 try:
                     device = self.devices.get(line.name)
-                    if device is None:
+                    if device is not None and (change.key != "info" or device.with_info):
+                        await self.publishers[line.name].apply(change.key, change.sample)
+                        continue
+                    if device is None and change.key not in ("info", "online"):
                         # the nodes could not be made again (logged): try when the line
                         # comes (back) up, not at every change
-                        if change.key not in ("info", "online"):
-                            continue
-                        await self._build(line)
-                        await self.publishers[line.name].apply_all(line.model.snapshot().items())
                         continue
-                    if change.key == "info" and not device.with_info:
-                        await self._rebuild(line)
-                        await self.publishers[line.name].apply_all(line.model.snapshot().items())
-                        continue
-                    await self.publishers[line.name].apply(change.key, change.sample)
+                    await (self._build(line) if device is None else self._rebuild(line))
+                    await self.publishers[line.name].apply_all(line.model.snapshot().items())
                 except Exception:  # one bad value must not stop the line's updates
                     log.exception("opcua %s: cannot show %s", line.name, change.key)
 

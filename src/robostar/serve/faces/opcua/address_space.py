@@ -134,6 +134,8 @@ class ChannelNodes:
     """ActualPosition of each axis in use, in AD's order."""
     values: dict[str, Node] = field(default_factory=dict)
     """Named variables: in_control, speed, program, loaded, current_state, origin, ... ."""
+    methods: dict[str, Node] = field(default_factory=dict)
+    """The task control state machine's methods by name (Start, Stop, LoadByName)."""
 
 
 @dataclass
@@ -439,7 +441,9 @@ async def _build_channel(
         datatype=node_id(EXECUTION_MODE_ENUMERATION, b.ns.robotics),
         description="CYCLE: a job started over the host link (CC) runs once, to its EOP.",
     )
-    nodes.values["current_state"] = await b.child(machine, ua.QualifiedName("CurrentState", 0))
+    current_state = await b.child(machine, ua.QualifiedName("CurrentState", 0))
+    nodes.values["current_state"] = current_state
+    nodes.values["current_state_id"] = await b.child(current_state, ua.QualifiedName("Id", 0))
     # the spec's link from a motion device to the task control that moves it
     await b.variable(
         device,
@@ -460,7 +464,7 @@ async def _build_channel(
             inputs,
             [_status_argument(method)],
         )
-        nodes.values[f"method:{method}"] = node
+        nodes.methods[method] = node
 
     # axes
     axes_folder = await b.child(device, b.rob("Axes"))

@@ -118,32 +118,16 @@ def handler_for(line: Line, method: str, channel: int | None) -> Handler:
         try:
             command = _command(method, channel, args)
         except RobostarError as exc:
-            line.audit.write(
-                line=line.name, who=who.name, face="opcua", what=method, outcome=f"refused: {exc}"
-            )
+            line.record(method, who, f"refused: {exc}")
             return status_for(exc)
         if caller is None or not caller.may_operate():
-            why = (
-                "an unsigned channel"
-                if caller is not None and not caller.secure
-                else ("not an operator")
-            )
-            line.audit.write(
-                line=line.name,
-                who=who.name,
-                face="opcua",
-                what=repr(command),
-                outcome=f"refused: {why}",
+            unsigned = caller is not None and not caller.secure
+            line.record(
+                command, who, f"refused: {'an unsigned channel' if unsigned else 'not an operator'}"
             )
             return _code("BadUserAccessDenied")
         if isinstance(command, StartJob | SelectJob) and _alarm_active(line, channel):
-            line.audit.write(
-                line=line.name,
-                who=who.name,
-                face="opcua",
-                what=repr(command),
-                outcome="refused: an alarm is active",
-            )
+            line.record(command, who, "refused: an alarm is active")
             return _status(method, E_ACTIVE_ALARM)
         try:
             await line.execute(command, who=who, implicit_lease=True)

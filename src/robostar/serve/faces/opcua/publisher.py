@@ -25,7 +25,6 @@ from asyncua.server.server import Server
 
 from robostar.serve.faces.opcua._ua import (
     StatusCodes,
-    UaStatusCodeError,
     node_id,
     status,
     timestamp,
@@ -119,7 +118,7 @@ class LinePublisher:
             for node in ch.axes:
                 await self._write(node, 0.0, ua.VariantType.Double, None)
             for name, node in ch.values.items():
-                if not name.startswith("method:") and name != "execution_mode":
+                if name != "execution_mode":  # a constant, not the model's
                     variant = await _variant_of(node)
                     await self._write(node, await node.read_value(), variant, None)
         for node in self.nodes.values.values():
@@ -208,17 +207,14 @@ class LinePublisher:
             state = "Ready"
         else:
             state = "Idle"
-        node = ch.values["current_state"]
-        await self._write(node, ua.LocalizedText(state), ua.VariantType.LocalizedText, sample)
-        state_id = ch.values.get("current_state_id")
-        if state_id is None:
-            try:
-                state_id = await node.get_child([ua.QualifiedName("Id", 0)])
-            except UaStatusCodeError:
-                return
-            ch.values["current_state_id"] = state_id
         await self._write(
-            state_id,
+            ch.values["current_state"],
+            ua.LocalizedText(state),
+            ua.VariantType.LocalizedText,
+            sample,
+        )
+        await self._write(
+            ch.values["current_state_id"],
             node_id(_STATE_IDS[state], self.robotics_ns),
             ua.VariantType.NodeId,
             sample,

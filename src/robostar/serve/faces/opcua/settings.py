@@ -54,8 +54,12 @@ class OpcUaSettings:
 
     @property
     def endpoint(self) -> str:
+        return self.url(self.port)
+
+    def url(self, port: int) -> str:
+        """``opc.tcp://HOST:PORT/`` for this host (an IPv6 address in brackets)."""
         host = f"[{self.host}]" if ":" in self.host else self.host
-        return f"opc.tcp://{host}:{self.port}/"
+        return f"opc.tcp://{host}:{port}/"
 
 
 def _flag(options: Mapping[str, Any], key: str) -> bool:
