@@ -799,7 +799,7 @@ def test_a_cache_others_can_write_is_never_loaded(tmp_path: Path) -> None:
     shared = tmp_path / "shared"
     shared.mkdir()
     inside = CachedInternalServer(shared)
-    path = inside._cache_file()
+    path = inside.cache_file
     assert path is not None
     path.write_bytes(pickle.dumps(({}, ["http://opcfoundation.org/UA/"])))
     path.chmod(0o600)

@@ -110,7 +110,7 @@ class OpcUaFace:
         space_started = time.perf_counter()
         await server.init()
         self.load = await iserver.load_nodesets(server)
-        self.load.seconds = time.perf_counter() - space_started  # asyncua's init included
+        self.load.seconds = time.perf_counter() - space_started
         server.set_endpoint(s.endpoint)
         server.set_server_name("robostar serve")
         server.product_uri = "urn:robostar"

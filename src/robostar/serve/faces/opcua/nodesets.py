@@ -22,7 +22,6 @@ import os
 import pickle
 import sys
 import tempfile
-import time
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -135,11 +134,14 @@ class CachedInternalServer(InternalServer):
         super().__init__(**kwargs)
         self.view_service: MemoViewService = MemoViewService(self.aspace)
         self.cache_dir = cache_dir
+        self.cache_file = (
+            None if cache_dir is None else cache_dir / f"address-space-{cache_key()}.pickle"
+        )
+        """Where the address space is cached (its name hashes the nodesets: read them once)."""
         self._cached_namespaces: list[str] | None = None
-        self.report = LoadReport()
 
     async def load_standard_address_space(self, shelf_file: Path | None = None) -> None:
-        cache = self._cache_file()
+        cache = self.cache_file
         if cache is not None:
             cached = self._read_cache(cache)
             if cached is not None:
@@ -150,9 +152,9 @@ class CachedInternalServer(InternalServer):
 
     async def load_nodesets(self, server: Server) -> LoadReport:
         """Import DI, IA and Robotics into ``server`` (whose inside this is), or finish the
-        load from the cache; call right after ``server.init()``."""
-        started = time.perf_counter()
-        cache = self._cache_file()
+        load from the cache; call right after ``server.init()``. The caller times the whole
+        (asyncua's init included) into the report's ``seconds``."""
+        cache = self.cache_file
         namespace_node = server.get_node(node_id(ObjectIds.Server_NamespaceArray))
         if self._cached_namespaces is not None:
             current = await namespace_node.read_value()
@@ -161,8 +163,7 @@ class CachedInternalServer(InternalServer):
             await namespace_node.write_value(restored)
             self._drop_repeated_references()
             self.view_service.freeze()
-            self.report = LoadReport(True, time.perf_counter() - started, cache)
-            return self.report
+            return LoadReport(True, 0.0, cache)
         importer_log = logging.getLogger("asyncua.common.xmlimporter")
         level = importer_log.level
         # the importer warns about each of the DI file's known oddities; they are expected
@@ -176,8 +177,7 @@ class CachedInternalServer(InternalServer):
         self.view_service.freeze()
         if cache is not None:
             self._write_cache(cache, list(await namespace_node.read_value()))
-        self.report = LoadReport(False, time.perf_counter() - started, cache)
-        return self.report
+        return LoadReport(False, 0.0, cache)
 
     def _drop_repeated_references(self) -> None:
         for data in self.aspace._nodes.values():
@@ -190,11 +190,6 @@ class CachedInternalServer(InternalServer):
                     kept.append(ref)
             if len(kept) != len(data.references):
                 data.references = kept
-
-    def _cache_file(self) -> Path | None:
-        if self.cache_dir is None:
-            return None
-        return self.cache_dir / f"address-space-{cache_key()}.pickle"
 
     def _read_cache(self, path: Path) -> tuple[dict[Any, Any], list[str]] | None:
         if not path.exists():
