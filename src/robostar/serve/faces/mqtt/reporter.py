@@ -13,6 +13,7 @@ from typing import Any
 
 from robostar.serve.faces.mqtt.payload import within_deadband
 from robostar.serve.model import Sample
+from robostar.serve.ratelimit import TokenBucket
 
 __all__ = ["Reporter"]
 
@@ -27,8 +28,7 @@ class Reporter:
         """Changes not sent because they were within the deadband or equal."""
         self._last: dict[str, tuple[Any, Any]] = {}
         self._held: OrderedDict[str, Sample] = OrderedDict()
-        self._tokens = max_rate
-        self._at: float | None = None
+        self._bucket = TokenBucket(max_rate, max_rate)
 
     def offer(self, key: str, sample: Sample) -> None:
         last = self._last.get(key)
@@ -43,13 +43,9 @@ class Reporter:
 
     def due(self, now: float) -> list[tuple[str, Sample]]:
         """The changes that may go out now, oldest first."""
-        if self._at is not None:
-            self._tokens = min(self.max_rate, self._tokens + (now - self._at) * self.max_rate)
-        self._at = now
         out = []
-        while self._held and self._tokens >= 1:
+        while self._held and self._bucket.take(now):
             key, sample = self._held.popitem(last=False)
-            self._tokens -= 1
             self._last[key] = (sample.value, sample.quality)
             out.append((key, sample))
         return out
@@ -62,7 +58,7 @@ class Reporter:
         """When the rate next allows one (None: nothing waits)."""
         if not self._held:
             return None
-        return now + max(0.0, (1 - self._tokens) / self.max_rate)
+        return self._bucket.next_at(now)
 
     def forget(self) -> None:
         """After a reconnect everything is published again from the snapshot."""

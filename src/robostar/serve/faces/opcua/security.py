@@ -32,6 +32,7 @@ from asyncua.crypto.permission_rules import SimpleRoleRuleset, User, UserRole
 from cryptography.x509.oid import ExtendedKeyUsageOID
 
 from robostar.serve.faces.opcua._ua import ObjectIds, node_id
+from robostar.serve.ratelimit import TokenBucket
 from robostar.serve.users import LoginLimiter, Role, UserStore
 
 __all__ = [
@@ -124,7 +125,7 @@ class RefuseAllRuleset(SimpleRoleRuleset):
         return False
 
 
-class SignInBudget:
+class SignInBudget(TokenBucket):
     """At most ``rate`` password checks a second for the whole face, ``burst`` at once (each
     about 50-100 ms of argon2 on the event loop; two a second keep the loop's worst stall at
     about a jog keepalive's period).
@@ -137,20 +138,7 @@ class SignInBudget:
     def __init__(
         self, rate: float = 2.0, burst: int = 2, clock: Callable[[], float] = time.monotonic
     ) -> None:
-        self.rate = rate
-        self.burst = burst
-        self._clock = clock
-        self._tokens = float(burst)
-        self._at = clock()
-
-    def take(self) -> bool:
-        now = self._clock()
-        self._tokens = min(self.burst, self._tokens + (now - self._at) * self.rate)
-        self._at = now
-        if self._tokens < 1.0:
-            return False
-        self._tokens -= 1.0
-        return True
+        super().__init__(rate, burst, clock=clock)
 
 
 class UsersManager:
@@ -190,13 +178,13 @@ class UsersManager:
             # password never crosses one, whatever the client offers
             log.warning("opcua: sign-in of %r refused: not over an unsigned channel", username)
             return None
-        if not self.budget.take():
-            log.warning("opcua: sign-in of %r refused: too many sign-ins at once", username)
-            return None
         self.users.refresh()
         wait = self.limiter.blocked_for(username)
-        if wait > 0:
+        if wait > 0:  # before the budget: a name held off costs no password check
             log.warning("opcua: sign-in of %r refused: too many failures (%.0f s)", username, wait)
+            return None
+        if not self.budget.take():
+            log.warning("opcua: sign-in of %r refused: too many sign-ins at once", username)
             return None
         # argon2 takes tens of milliseconds, once per session activation
         user = self.users.verify(username, password)
