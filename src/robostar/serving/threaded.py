@@ -44,6 +44,11 @@ _MAX_PENDING_PTY = 1 << 16
 _IDLE_WAKE = 0.2
 """The loop looks at the peer at least this often, for changes made from other threads."""
 _MIN_WAIT = 0.0002
+"""Shortest sleep, so a peer whose deadline does not move cannot make the loop spin."""
+_SPIN = 0.0003
+"""A paced line polls without sleeping for the last this-many seconds before a deadline."""
+_SPIN_GRACE = 0.001
+"""How long a paced line may poll past a deadline that does not move before it sleeps again."""
 _SO_TIMESTAMPNS = 35
 """Linux's SO_TIMESTAMPNS (SCM_TIMESTAMPNS), which Python's socket module does not name: the
 kernel stamps each received packet with the (real) time it arrived."""
@@ -73,11 +78,6 @@ def _arrival(ancillary: list[tuple[int, int, bytes]]) -> float | None:
     return None
 
 
-_SPIN = 0.0003
-"""A paced line polls without sleeping for the last this-many seconds before a deadline."""
-_SPIN_GRACE = 0.001
-"""How long a paced line may poll past a deadline that does not move before it sleeps again."""
-"""Shortest sleep, so a peer whose deadline does not move cannot make the loop spin."""
 _JOIN_TIMEOUT = 10.0
 _ACCEPT_BACKOFF = 0.5
 """Seconds the listeners rest after an accept failed for want of descriptors or memory."""
@@ -199,6 +199,10 @@ class _Stream:
         self.out = bytearray()
         self.writing = False
         """Registered for EVENT_WRITE too (bytes wait in :attr:`out`)."""
+        self.arrived: float | None = None
+        """``time.monotonic()`` at which the kernel received the last read's bytes, where the
+        stream knows it (a stamped TCP stream of a paced line): the line's wire time counts
+        from then, not from whenever this thread woke to read them."""
 
     def fileno(self) -> int:
         raise NotImplementedError
@@ -221,10 +225,6 @@ class _TcpStream(_Stream):
         super().__init__(name)
         self.sock = sock
         self.stamped = stamped and _ask_for_stamps(sock)
-        self.arrived: float | None = None
-        """``time.monotonic()`` at which the kernel received the last read's bytes, when the
-        stream is stamped (a paced line): the line's wire time counts from then, not from
-        whenever this thread woke to read them."""
 
     def fileno(self) -> int:
         return self.sock.fileno()
@@ -583,8 +583,7 @@ class PeerHost:
             if data:
                 now = time.monotonic()
                 # a paced line counts the bytes' wire time from their arrival, as a UART would
-                arrived = getattr(stream, "arrived", None)
-                at = arrived if arrived is not None else now
+                at = stream.arrived if stream.arrived is not None else now
                 with self.lock:
                     if self.source is not None:
                         self.source.poll(now)
