@@ -14,16 +14,18 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import contextlib
 import json
 import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import AsyncIterator
 from pathlib import Path
 from typing import Any
 
 from asyncua import Client
-from tests.serve_opcua.conftest import CLIENT_URI, PASSWORDS, Model, Setup
+from tests.serve_opcua.conftest import PASSWORDS, Model, Setup, connect, make_setup, serving
 
 from bench.measure import percentile
 from robostar.commands.control import SetSpeed
@@ -36,45 +38,6 @@ from robostar.types import CoordSystem, MotionType
 BENCH = Who("bench", "cli")
 
 
-def _setup(root: Path) -> Setup:
-    from asyncua.crypto.cert_gen import setup_self_signed_certificate
-    from cryptography.x509.oid import ExtendedKeyUsageOID
-
-    users = UserStore(root / "users.toml")
-    users.add("olga", Role.OPERATOR, PASSWORDS["olga"])
-    cert, key = root / "client-cert.der", root / "client-key.pem"
-    asyncio.run(
-        setup_self_signed_certificate(
-            key, cert, CLIENT_URI, "localhost", [ExtendedKeyUsageOID.CLIENT_AUTH], {}
-        )
-    )
-    return Setup(root / "users.toml", root / "state", root / "cache", cert, key)
-
-
-def _config(setup: Setup, poll: float, slow: float = 1.0) -> ServeConfig:
-    line = LineConfig("cell1", "sim://", poll_interval=poll, slow_interval=slow)
-    options = {
-        "listen": "127.0.0.1:0",
-        "users": str(setup.users),
-        "state_dir": str(setup.state),
-        "cache_dir": str(setup.cache),
-    }
-    return ServeConfig(lines=(line,), faces={"opcua": options})
-
-
-async def _client(server: LineServer, setup: Setup) -> Client:
-    face: Any = server.faces["opcua"]
-    client = Client(face.address, timeout=10)
-    client.application_uri = CLIENT_URI
-    await client.set_security_string(
-        f"Basic256Sha256,SignAndEncrypt,{setup.client_cert},{setup.client_key}"
-    )
-    client.set_user("olga")
-    client.set_password(PASSWORDS["olga"])
-    await client.connect()
-    return client
-
-
 class _Arrivals:
     def __init__(self) -> None:
         self.got: list[tuple[float, float, Any]] = []
@@ -82,6 +45,30 @@ class _Arrivals:
 
     def datachange_notification(self, node: Any, value: Any, data: Any) -> None:
         self.got.append((time.perf_counter(), time.time(), data.monitored_item.Value))
+
+    async def next_after(self, count: int) -> float:
+        """Wait for notification number ``count + 1``; its perf_counter time."""
+        while len(self.got) == count:
+            await asyncio.sleep(0.0005)
+        return self.got[-1][0]
+
+
+@contextlib.asynccontextmanager
+async def _watching(client: Client, node: Any) -> AsyncIterator[_Arrivals]:
+    """Every data change of ``node`` (publishing and sampling interval asked 0)."""
+    arrivals = _Arrivals()
+    subscription = await client.create_subscription(0, arrivals)
+    await subscription.subscribe_data_change(node, sampling_interval=0)
+    try:
+        yield arrivals
+    finally:
+        await subscription.delete()
+
+
+async def _speed_override(client: Client) -> Any:
+    return await Model(client).path(
+        "rob:MotionDevices", "ven:Channel1", "di:ParameterSet", "rob:SpeedOverride"
+    )
 
 
 def _report(label: str, delays: list[float]) -> None:
@@ -91,77 +78,54 @@ def _report(label: str, delays: list[float]) -> None:
 
 async def model_to_subscriber(setup: Setup, n: int = 300) -> None:
     # the poller reads the speed only every 100 s: the bench's values are not overwritten
-    async with LineServer(_config(setup, poll=100.0, slow=100.0)) as server:
-        client = await _client(server, setup)
-        try:
-            node = await Model(client).path(
-                "rob:MotionDevices", "ven:Channel1", "di:ParameterSet", "rob:SpeedOverride"
-            )
-            arrivals = _Arrivals()
-            subscription = await client.create_subscription(0, arrivals)
-            await subscription.subscribe_data_change(node, sampling_interval=0)
-            await asyncio.sleep(0.5)
-            model = server.line("cell1").model
-            delays = []
-            for k in range(1, n + 1):
-                count = len(arrivals.got)
-                sent = time.perf_counter()
-                model.set("ch1/speed", 10 * k)
-                while len(arrivals.got) == count:
-                    await asyncio.sleep(0.0005)
-                delays.append(arrivals.got[-1][0] - sent)
-            await subscription.delete()
-        finally:
-            await client.disconnect()
+    async with (
+        serving(setup, url="sim://", poll=100.0, slow=100.0) as server,
+        connect(server, setup) as client,
+        _watching(client, await _speed_override(client)) as arrivals,
+    ):
+        await asyncio.sleep(0.5)
+        model = server.line("cell1").model
+        delays = []
+        for k in range(1, n + 1):
+            count = len(arrivals.got)
+            sent = time.perf_counter()
+            model.set("ch1/speed", 10 * k)
+            delays.append(await arrivals.next_after(count) - sent)
     _report("model change -> notification", delays)
 
 
 async def moving_to_subscriber(setup: Setup, seconds: float = 10.0) -> None:
-    async with LineServer(_config(setup, poll=0.05)) as server:
+    async with serving(setup, url="sim://", poll=0.05) as server:
         line = server.line("cell1")
         await line.execute(Home(1), who=BENCH, implicit_lease=True)
         while not (s := line.model.get("ch1/status")) or not s.value.origin or s.value.running:
             await asyncio.sleep(0.05)
-        client = await _client(server, setup)
-        try:
-            node = await Model(client).axis_position(1, 1)
-            arrivals = _Arrivals()
-            subscription = await client.create_subscription(0, arrivals)
-            await subscription.subscribe_data_change(node, sampling_interval=0)
-            end = time.monotonic() + seconds
-            targets = ((100.0, 60.0, 0.0, 0.0), (-100.0, -60.0, 0.0, 0.0))
-            k = 0
-            while time.monotonic() < end:
-                move = Move(1, MotionType.JOINT, CoordSystem.ANGLE, (targets[k % 2],))
-                await line.execute(move, who=BENCH, implicit_lease=True)
-                k += 1
-                await asyncio.sleep(0.2)
-                while (s := line.model.get("ch1/status")) and s.value.running:
-                    await asyncio.sleep(0.02)
-            await subscription.delete()
+        async with connect(server, setup) as client:
+            model = Model(client)
+            async with _watching(client, await model.axis_position(1, 1)) as arrivals:
+                end = time.monotonic() + seconds
+                targets = ((100.0, 60.0, 0.0, 0.0), (-100.0, -60.0, 0.0, 0.0))
+                k = 0
+                while time.monotonic() < end:
+                    move = Move(1, MotionType.JOINT, CoordSystem.ANGLE, (targets[k % 2],))
+                    await line.execute(move, who=BENCH, implicit_lease=True)
+                    k += 1
+                    await asyncio.sleep(0.2)
+                    while (s := line.model.get("ch1/status")) and s.value.running:
+                        await asyncio.sleep(0.02)
             delays = [
                 wall - value.SourceTimestamp.timestamp()
                 for _, wall, value in arrivals.got[1:]
                 if value.SourceTimestamp is not None
             ]
             speeds = []
-            node_speed = await Model(client).path(
-                "rob:MotionDevices", "ven:Channel1", "di:ParameterSet", "rob:SpeedOverride"
-            )
-            arrivals = _Arrivals()
-            subscription = await client.create_subscription(0, arrivals)
-            await subscription.subscribe_data_change(node_speed, sampling_interval=0)
-            await asyncio.sleep(0.3)
-            for k in range(40):
-                count = len(arrivals.got)
-                await line.execute(SetSpeed(1, 100 + 10 * k), who=BENCH, implicit_lease=True)
-                done = time.perf_counter()
-                while len(arrivals.got) == count:
-                    await asyncio.sleep(0.0005)
-                speeds.append(arrivals.got[-1][0] - done)
-            await subscription.delete()
-        finally:
-            await client.disconnect()
+            async with _watching(client, await _speed_override(client)) as arrivals:
+                await asyncio.sleep(0.3)
+                for k in range(40):
+                    count = len(arrivals.got)
+                    await line.execute(SetSpeed(1, 100 + 10 * k), who=BENCH, implicit_lease=True)
+                    done = time.perf_counter()
+                    speeds.append(await arrivals.next_after(count) - done)
     _report("polled position (source time) -> notification", delays)
     _report("speed write acknowledged -> notification", speeds)
 
@@ -232,7 +196,7 @@ def main() -> int:
         return 0
     with tempfile.TemporaryDirectory() as folder:
         root = Path(folder)
-        setup = _setup(root)
+        setup = make_setup(root)
         print("OPC UA face (asyncua client, Basic256Sha256 SignAndEncrypt, 2 shared cores):")
         asyncio.run(model_to_subscriber(setup, n=100 if args.quick else 300))
         asyncio.run(moving_to_subscriber(setup, seconds=4.0 if args.quick else 10.0))

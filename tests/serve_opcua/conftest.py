@@ -33,12 +33,8 @@ class Setup:
     client_key: Path
 
 
-@pytest.fixture(scope="session")
-def opcua_setup(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Setup]:
-    """Users, a certificate directory, a nodeset cache and a client certificate, shared by the
-    session's tests (the first server of the session imports the nodesets, the others load
-    the cache)."""
-    root = tmp_path_factory.mktemp("opcua")
+def make_setup(root: Path) -> Setup:
+    """Users (olga the operator, vic the viewer), and a client certificate, under ``root``."""
     users = UserStore(root / "users.toml")
     users.add("olga", Role.OPERATOR, PASSWORDS["olga"])
     users.add("vic", Role.VIEWER, PASSWORDS["vic"])
@@ -53,11 +49,24 @@ def opcua_setup(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Setup]:
             {"commonName": "robostar tests"},
         )
     )
-    yield Setup(root / "users.toml", root / "state", root / "cache", cert, key)
+    return Setup(root / "users.toml", root / "state", root / "cache", cert, key)
+
+
+@pytest.fixture(scope="session")
+def opcua_setup(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Setup]:
+    """Users, a certificate directory, a nodeset cache and a client certificate, shared by the
+    session's tests (the first server of the session imports the nodesets, the others load
+    the cache)."""
+    yield make_setup(tmp_path_factory.mktemp("opcua"))
 
 
 def config(
-    setup: Setup, *, url: str = "sim://?speedup=20", poll: float = 0.05, **opcua: Any
+    setup: Setup,
+    *,
+    url: str = "sim://?speedup=20",
+    poll: float = 0.05,
+    slow: float = 1.0,
+    **opcua: Any,
 ) -> ServeConfig:
     options: dict[str, Any] = {
         "listen": "127.0.0.1:0",
@@ -66,7 +75,7 @@ def config(
         "cache_dir": str(setup.cache),
     }
     options.update(opcua)
-    line = LineConfig("cell1", url, poll_interval=poll)
+    line = LineConfig("cell1", url, poll_interval=poll, slow_interval=slow)
     return ServeConfig(
         lines=(line,), faces={"opcua": options}, audit_path=str(setup.state / "audit.jsonl")
     )
@@ -147,6 +156,26 @@ class Model:
             "di:ParameterSet",
             "rob:ActualPosition",
         )
+
+    async def alarm_event_type(self) -> Node:
+        """The face's N1AlarmConditionType (an AlarmConditionType)."""
+        _, _, vendor = await self.ns()
+        return await self.client.get_node(ua.ObjectIds.AlarmConditionType).get_child(
+            [f"{vendor}:N1AlarmConditionType"]
+        )
+
+    async def refresh_conditions(self, handler: Any) -> Any:
+        """A new subscription to the line's alarm conditions, asked for the active ones
+        (ConditionRefresh), as a client that comes late does; the subscription."""
+        subscription = await self.client.create_subscription(20, handler)
+        await subscription.subscribe_alarms_and_conditions(
+            await self.system(), await self.alarm_event_type()
+        )
+        await self.client.get_node(ua.ObjectIds.ConditionType).call_method(
+            ua.NodeId(ua.ObjectIds.ConditionType_ConditionRefresh),
+            ua.Variant(subscription.subscription_id, ua.VariantType.UInt32),
+        )
+        return subscription
 
     async def state_machine(self, channel: int) -> Node:
         return await self.path(

@@ -392,13 +392,11 @@ def test_emergency_stop_raises_an_alarm_event_and_reset_clears_it(opcua_setup: S
         async with serving(opcua_setup) as server, connect(server, opcua_setup) as client:
             model = Model(client)
             _, _, vendor = await model.ns()
-            system = await model.system()
-            event_type = await client.get_node(ua.ObjectIds.AlarmConditionType).get_child(
-                [f"{vendor}:N1AlarmConditionType"]
-            )
             handler = Changes()
             subscription = await client.create_subscription(20, handler)
-            await subscription.subscribe_events(system, event_type)
+            await subscription.subscribe_events(
+                await model.system(), await model.alarm_event_type()
+            )
             controller = await model.path("rob:Controllers", "ven:cell1", "ven:Robostar")
             result = await controller.call_method(f"{vendor}:EmergencyStop")
             assert result == 0
@@ -413,12 +411,7 @@ def test_emergency_stop_raises_an_alarm_event_and_reset_clears_it(opcua_setup: S
             assert event.Retain is True and event.ConditionName == "9001"
             # a client that comes later asks for the active conditions (ConditionRefresh)
             late = Changes()
-            late_sub = await client.create_subscription(20, late)
-            await late_sub.subscribe_alarms_and_conditions(system, event_type)
-            await client.get_node(ua.ObjectIds.ConditionType).call_method(
-                ua.NodeId(ua.ObjectIds.ConditionType_ConditionRefresh),
-                ua.Variant(late_sub.subscription_id, ua.VariantType.UInt32),
-            )
+            late_sub = await model.refresh_conditions(late)
 
             async def refreshed() -> bool:
                 return any(getattr(e, "AlarmCode", None) == 9001 for e in late.events)
@@ -460,20 +453,10 @@ def test_condition_refresh_replays_each_active_alarm(opcua_setup: Setup) -> None
         ):
             line = server.line("cell1")
             model = Model(client)
-            _, _, vendor = await model.ns()
-            system = await model.system()
-            event_type = await client.get_node(ua.ObjectIds.AlarmConditionType).get_child(
-                [f"{vendor}:N1AlarmConditionType"]
-            )
 
             async def refresh(expect: int) -> list[tuple[int, bool]]:
                 handler = Changes()
-                subscription = await client.create_subscription(20, handler)
-                await subscription.subscribe_alarms_and_conditions(system, event_type)
-                await client.get_node(ua.ObjectIds.ConditionType).call_method(
-                    ua.NodeId(ua.ObjectIds.ConditionType_ConditionRefresh),
-                    ua.Variant(subscription.subscription_id, ua.VariantType.UInt32),
-                )
+                subscription = await model.refresh_conditions(handler)
 
                 async def replayed() -> bool:
                     return len(handler.events) >= expect
