@@ -285,15 +285,14 @@ async def build_line(
     b = _Builder(server, ns, line)
     device_set = server.get_node(node_id(DEVICE_SET, ns.di))
     system = await b.instance(device_set, line, b.vendor(line), MOTION_DEVICE_SYSTEM_TYPE)
-    nodes = DeviceNodes(line, system, system, system, with_info=info is not None)
     await b.component_name(system, line, f"{line} (Robostar N1)")
+    values: dict[str, Node] = {}
 
     # -- the controller ------------------------------------------------------------------
     controllers = await b.child(system, b.rob("Controllers"))
     controller = await b.instance(
         controllers, f"{line}.Controller", b.vendor(line), CONTROLLER_TYPE
     )
-    nodes.controller = controller
     await b.component_name(controller, f"{line}.Controller", f"{line} controller")
     model = info.name if info is not None else "N1"
     await _identity(controller, b, model)
@@ -334,8 +333,8 @@ async def build_line(
     for index in global_floats:
         about = f"Global float variable {index} (GR)."
         specs.append((f"global/float/{index}", f"GlobalFloat{index}", 0.0, double, about))
-    nodes.values.update(await b.vendor_variables(vendor, line, specs))
-    nodes.methods["EmergencyStop"] = await vendor.add_method(
+    values.update(await b.vendor_variables(vendor, line, specs))
+    emergency_stop = await vendor.add_method(
         b.nodeid(f"{line}.EmergencyStop"),
         b.vendor("EmergencyStop"),
         _no_call,
@@ -346,7 +345,6 @@ async def build_line(
     # -- the safety state: informational only, as the spec says ---------------------------
     safety_folder = await b.child(system, b.rob("SafetyStates"))
     safety = await b.instance(safety_folder, f"{line}.Safety", b.vendor(line), SAFETY_STATE_TYPE)
-    nodes.safety = safety
     await safety.write_attribute(
         AttributeIds.Description,
         ua.DataValue(
@@ -359,7 +357,7 @@ async def build_line(
         ),
     )
     params = await b.child(safety, b.di("ParameterSet"))
-    nodes.values["emergency_stop"] = await b.child(params, b.rob("EmergencyStop"))
+    values["emergency_stop"] = await b.child(params, b.rob("EmergencyStop"))
     operational = await b.child(params, b.rob("OperationalMode"))
     await _set(operational, 0, ua.VariantType.Int32)  # OTHER: the host protocol does not say
     protective = await b.child(params, b.rob("ProtectiveStop"))
@@ -374,13 +372,23 @@ async def build_line(
     # -- the channels: motion devices and task controls -----------------------------------
     devices = await b.child(system, b.rob("MotionDevices"))
     task_controls = await b.child(controller, b.rob("TaskControls"))
+    built = {}
     for channel in channels:
         ch_info = _channel_info(info, channel)
         label = labels.get(channel) or f"Channel{channel}"
-        nodes.channels[channel] = await _build_channel(
+        built[channel] = await _build_channel(
             b, devices, task_controls, channel, label, ch_info, model
         )
-    return nodes
+    return DeviceNodes(
+        line,
+        system,
+        controller,
+        safety,
+        channels=built,
+        values=values,
+        methods={"EmergencyStop": emergency_stop},
+        with_info=info is not None,
+    )
 
 
 async def _build_channel(
