@@ -11,14 +11,14 @@ from typing import Any, Self, TypeVar, cast
 
 from robostar.client._async_face import AsyncOperations
 from robostar.client.core import DRAIN_READS, ClientBase, Settings, check_keepalive
-from robostar.client.driver import command_plan, decode, is_plain_answer
+from robostar.client.driver import NOT_DECODED, command_plan, decoded_at_once
 from robostar.client.exchange import Exchange, Outcome, Progress
 from robostar.client.jog import AsyncJog, jog_start
 from robostar.client.locks import AsyncPriorityLock
 from robostar.client.plan import Call, Effect, Plan, run_plan_async
 from robostar.client.trace import TraceTarget
 from robostar.commands.base import Command
-from robostar.errors import MalformedAnswerError, PortError, RobostarError, UsageError
+from robostar.errors import PortError, RobostarError, UsageError
 from robostar.transport import AsyncTransport, async_transport_for_url
 from robostar.types import JogDirection, MotionType
 
@@ -124,12 +124,10 @@ class AsyncClient(AsyncOperations, ClientBase):
             if not self.transport.is_open:
                 await self._ensure_open()
             outcome = await self._exchange(command, progress)
-            if is_plain_answer(command, outcome):
-                # As in Client._call: a clean answer that decodes needs none of the rules.
-                try:
-                    return decode(command, outcome.packets)
-                except MalformedAnswerError:
-                    pass
+            # the usual case, a clean answer that decodes, needs none of the rules
+            result = decoded_at_once(command, outcome)
+            if result is not NOT_DECODED:
+                return result
             plan = command_plan(command, self._policy)
             request = next(plan)  # the rules always ask for the command first
             while True:

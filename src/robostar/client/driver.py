@@ -13,6 +13,7 @@
 
 from __future__ import annotations
 
+import enum
 from collections.abc import Generator
 from dataclasses import dataclass
 from typing import Any, TypeVar, cast
@@ -39,7 +40,15 @@ from robostar.protocol.fields import FLAG_FAILED
 from robostar.protocol.link import MAX_NAKS, ExchangeFailed, FailReason, State
 from robostar.types import CoordSystem, JobFile, PointFile
 
-__all__ = ["CommandPlan", "Policy", "command_plan", "decode", "is_plain_answer", "upload_matches"]
+__all__ = [
+    "NOT_DECODED",
+    "CommandPlan",
+    "Policy",
+    "command_plan",
+    "decode",
+    "decoded_at_once",
+    "upload_matches",
+]
 
 T = TypeVar("T")
 CommandPlan = Generator[Command[Any], Outcome, T]
@@ -109,11 +118,25 @@ def failure_error(command: Command[Any], failure: ExchangeFailed, policy: Policy
     return LinkResetError(code, failure.detail or reason.value)
 
 
-def is_plain_answer(command: Command[Any], outcome: Outcome) -> bool:
-    """Did the first exchange of ``command`` end with an answer that :func:`command_plan`
-    would only decode (no failure, no error flag, not an upload)? The clients then decode it
-    at once; should it not decode, the plan takes the same outcome and applies its rules."""
-    return outcome.failure is None and outcome.flag is None and not is_upload(command)
+class _NotDecoded(enum.Enum):
+    NOT_DECODED = 0
+
+
+NOT_DECODED = _NotDecoded.NOT_DECODED
+"""What :func:`decoded_at_once` gives when the rules must look at the outcome."""
+
+
+def decoded_at_once(command: Command[T], outcome: Outcome) -> T | _NotDecoded:
+    """The usual case, without the rules: the result of the first exchange of ``command``
+    when it ended with an answer :func:`command_plan` would only decode (no failure, no error
+    flag, not an upload) and that decodes. Otherwise NOT_DECODED, and the clients hand the
+    same outcome to the plan, which applies its rules."""
+    if outcome.failure is None and outcome.flag is None and not is_upload(command):
+        try:
+            return decode(command, outcome.packets)
+        except MalformedAnswerError:
+            pass
+    return NOT_DECODED
 
 
 def command_plan(command: Command[T], policy: Policy) -> CommandPlan[T]:

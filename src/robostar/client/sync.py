@@ -10,14 +10,14 @@ from typing import Any, Self, TypeVar, cast
 
 from robostar.client._sync_face import SyncOperations
 from robostar.client.core import DRAIN_READS, ClientBase, Settings, check_keepalive
-from robostar.client.driver import command_plan, decode, is_plain_answer
+from robostar.client.driver import NOT_DECODED, command_plan, decoded_at_once
 from robostar.client.exchange import Exchange, Outcome, Progress
 from robostar.client.jog import Jog, jog_start
 from robostar.client.locks import PriorityLock
 from robostar.client.plan import Call, Effect, Plan, run_plan
 from robostar.client.trace import TraceTarget
 from robostar.commands.base import Command
-from robostar.errors import MalformedAnswerError, PortError, RobostarError, UsageError
+from robostar.errors import PortError, RobostarError, UsageError
 from robostar.transport import Transport, transport_for_url
 from robostar.types import JogDirection, MotionType
 
@@ -132,13 +132,10 @@ class Client(SyncOperations, ClientBase):
             if not self.transport.is_open:
                 self._ensure_open()
             outcome = self._exchange(command, progress)
-            if is_plain_answer(command, outcome):
-                # The usual case, decoded at once: the rules have nothing to add to a clean
-                # answer that decodes. Anything else goes through them (command_plan).
-                try:
-                    return decode(command, outcome.packets)
-                except MalformedAnswerError:
-                    pass
+            # the usual case, a clean answer that decodes, needs none of the rules
+            result = decoded_at_once(command, outcome)
+            if result is not NOT_DECODED:
+                return result
             plan = command_plan(command, self._policy)
             request = next(plan)  # the rules always ask for the command first
             while True:
