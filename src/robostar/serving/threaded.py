@@ -387,6 +387,11 @@ class PeerHost:
             sock.bind(address)
             sock.listen(8)
             sock.setblocking(False)
+            if self._paced:
+                # The kernel turns receive stamps on lazily (deferred work): asked for only when
+                # a host connects, its first packets may come unstamped. Asked for here, they are
+                # on before anyone connects (accepted sockets inherit the option).
+                _ask_for_stamps(sock)
         except OSError as exc:
             sock.close()
             reason = exc.strerror or str(exc)
