@@ -6,6 +6,7 @@ import asyncio
 import errno
 import os
 import socket
+import time
 import threading
 from collections.abc import Iterator
 
@@ -178,6 +179,27 @@ def test_serial_round_trip_over_a_pty(pty_pair: tuple[int, str]) -> None:
     assert not transport.is_open
     with pytest.raises(PortError, match="not open"):
         transport.read(0)
+
+
+@posix_only
+def test_a_pty_read_takes_all_that_waits_at_once(pty_pair: tuple[int, str]) -> None:
+    master, path = pty_pair
+    with open_transport(path) as transport:
+        os.write(master, bytes(range(0x20, 0x7F)) * 8)  # 760 bytes, one write
+        time.sleep(0.05)
+        assert transport.read(1.0) == bytes(range(0x20, 0x7F)) * 8
+
+
+@posix_only
+def test_a_pty_whose_other_end_went_away_is_a_closed_line() -> None:
+    master, slave = os.openpty()
+    path = os.ttyname(slave)
+    os.close(slave)
+    transport = open_transport(path)
+    os.close(master)
+    with pytest.raises(PortError, match="read failed"):
+        transport.read(1.0)
+    assert not transport.is_open
 
 
 def test_pyserial_loop_url_echoes() -> None:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import os
 import select
 import sys
 from dataclasses import asdict, dataclass
@@ -19,6 +20,8 @@ __all__ = ["SerialSettings", "SerialTransport", "port_error"]
 
 _BUSY = frozenset((errno.EBUSY, errno.EAGAIN, errno.EWOULDBLOCK))
 _DENIED = frozenset((errno.EACCES, errno.EPERM))
+_READ_SIZE = 4096
+"""At most this much per read: more than a few packets of the N1's."""
 
 
 def port_error(port: str, exc: BaseException) -> PortError:
@@ -106,6 +109,8 @@ class SerialTransport(Transport):
         self.low_latency = low_latency
         self._serial: serial.SerialBase | None = None
         self._fd: int | None = None
+        self._direct = False
+        """Read the device's descriptor with os.read (a device path on POSIX)."""
 
     @property
     def is_open(self) -> bool:
@@ -137,11 +142,16 @@ class SerialTransport(Transport):
             with contextlib.suppress(AttributeError, NotImplementedError, OSError, ValueError):
                 port.set_low_latency_mode(True)  # type: ignore[attr-defined]
         self._fd = _descriptor(port)
+        # pyserial opens a POSIX device non-blocking: once select() says it is readable, one
+        # os.read() takes what is there. Through port.read() a read cost an ioctl (in_waiting),
+        # a second select() and pyserial's timeout bookkeeping besides.
+        self._direct = self._fd is not None and not self.is_url
         self._serial = port
 
     def close(self) -> None:
         port, self._serial = self._serial, None
         self._fd = None
+        self._direct = False
         if port is not None:
             with contextlib.suppress(serial.SerialException, OSError):
                 port.close()
@@ -167,6 +177,17 @@ class SerialTransport(Transport):
                 ready, _, _ = select.select([self._fd], [], [], max(timeout, 0.0))
                 if not ready:
                     return b""
+                if self._direct:
+                    try:
+                        data = os.read(self._fd, _READ_SIZE)
+                    except BlockingIOError:
+                        return b""  # another reader took it first; as a timeout
+                    if not data:  # pyserial's words for the same
+                        raise serial.SerialException(
+                            "device reports readiness to read but returned no data"
+                            " (device disconnected or multiple access on port?)"
+                        )
+                    return data
                 waiting: int = port.in_waiting  # type: ignore[attr-defined]
                 return bytes(port.read(max(waiting, 1)))
             if port.timeout != timeout:
