@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import time
 
+from bench.measure import wire_seconds
 from robostar.transport import Transport
 
 __all__ = ["CountingTransport"]
@@ -22,9 +23,11 @@ class CountingTransport(Transport):
         self.received = 0
         self.keepalive_times: list[float] = []
         self.host_busy = 0.0
-        """Seconds spent outside ``read`` between reads: the host's own share of a transfer
-        (acting on what arrived, writing, and getting to the next read)."""
-        self._since: float | None = None
+        """Seconds the line waited on the host: from the end of what it last read (or the end
+        of the wire time of what it last wrote) to its next write. The protocol is one way at
+        a time, so nothing is on the wire then: this is the host's turnaround, the part of a
+        transfer's time over the wire floor that is the host's own."""
+        self._line_free: float | None = None
 
     @property
     def is_open(self) -> bool:
@@ -37,24 +40,28 @@ class CountingTransport(Transport):
         self.inner.close()
 
     def write(self, data: bytes) -> None:
+        now = time.perf_counter()
+        free = self._line_free
+        if free is not None and now > free:
+            self.host_busy += now - free
+        # what is written goes on the wire once what went before it has left
+        self._line_free = max(now, free or now) + wire_seconds(len(data))
         self.inner.write(data)
         if data.startswith(_KEEPALIVE):
             self.keepalive_times.append(time.monotonic())
         self.sent += len(data)
 
     def read(self, timeout: float) -> bytes:
-        entered = time.perf_counter()
-        if self._since is not None:
-            self.host_busy += entered - self._since
         data = self.inner.read(timeout)
         self.received += len(data)
-        self._since = time.perf_counter()
+        if data:
+            self._line_free = time.perf_counter()
         return data
 
     def restart_busy(self) -> None:
         """Count host time from the next read on."""
         self.host_busy = 0.0
-        self._since = None
+        self._line_free = None
 
     @property
     def total(self) -> int:

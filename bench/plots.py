@@ -20,7 +20,7 @@ def plot_wire(wire: dict[str, Any], path: Path) -> None:
     names = list(cases)
     floors = [cases[n]["floor"] for n in names]
     measured = [cases[n]["seconds"] for n in names]
-    fig, ax = plt.subplots(figsize=(7, 3.8), layout="constrained")
+    fig, ax = plt.subplots(figsize=(7, 1.0 + 0.7 * len(names)), layout="constrained")
     y = range(len(names))
     ax.barh([i + 0.2 for i in y], floors, height=0.4, label="wire-time floor", color="#9aa7b8")
     ax.barh([i - 0.2 for i in y], measured, height=0.4, label="measured", color="#2c6fbb")
@@ -32,7 +32,7 @@ def plot_wire(wire: dict[str, Any], path: Path) -> None:
             marker="x",
             s=60,
             color="black",
-            label="raw-socket host, same simulator",
+            label="raw host, same simulator and line",
             zorder=3,
         )
     for i, n in enumerate(names):
@@ -44,11 +44,16 @@ def plot_wire(wire: dict[str, Any], path: Path) -> None:
             va="center",
             fontsize=8,
         )
-    labels = {
-        "FB upload": f"FB upload\n{wire['lines']} lines",
-        "FA download": f"FA download\n{wire['lines']} lines",
-        "AA polls": f"AA polls\n× {wire['polls']}",
+    sizes = {
+        "FB upload": f"{wire['lines']} lines",
+        "FA download": f"{wire['lines']} lines",
+        "AA polls": f"× {wire['polls']}",
+        "250-byte packets": f"KE × {wire.get('packets', '?')}",
     }
+    labels = {}
+    for n in names:
+        transfer, _, line = n.partition(", ")
+        labels[n] = f"{transfer}, {line or 'tcp'}\n{sizes.get(transfer, '')}"
     ax.set_yticks(list(y), [labels.get(n, n) for n in names])
     ax.invert_yaxis()
     ax.set_xlabel(f"seconds at {wire['baud']} baud (simulator pacing its line)")

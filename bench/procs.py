@@ -27,11 +27,21 @@ REPO = Path(__file__).resolve().parent.parent
 _STOP_WAIT = 10.0
 
 
-def sim_command(count: int = 1, baud: int | None = None) -> list[str]:
-    """``python -m robostar.sim`` serving ``count`` controllers on free loopback ports."""
-    args = [sys.executable, "-m", "robostar.sim", "--listen", "127.0.0.1:0", "--count", str(count)]
+def sim_command(
+    count: int = 1,
+    baud: int | None = None,
+    *,
+    pty: bool = False,
+    state: str | os.PathLike[str] | None = None,
+) -> list[str]:
+    """``python -m robostar.sim`` serving ``count`` controllers on free loopback ports, or with
+    ``pty`` on a pseudo-terminal only; ``state``: the directory it keeps its state in."""
+    args = [sys.executable, "-m", "robostar.sim", "--count", str(count)]
+    args += ["--listen", "none", "--pty"] if pty else ["--listen", "127.0.0.1:0"]
     if baud is not None:
         args += ["--baud", str(baud)]
+    if state is not None:
+        args += ["--state", os.fspath(state)]
     return args
 
 

@@ -1,26 +1,36 @@
-"""A raw-socket host for item 3: the same transfers as the client, with no protocol stack.
+"""A raw host for item 3: the same transfers as the client, with no protocol stack.
 
 Every packet is encoded before the clock starts; the loop only writes them, reads frames up to
 ETX and LRC, and ACKs. Against the paced simulator it shows what the simulator and the
-loopback hops alone add to the wire time, so the rest of the excess is the client's.
+line (loopback TCP hops, or the kernel's pseudo-terminal) alone add to the wire time, so the
+rest of the excess is the client's.
 """
 
 from __future__ import annotations
 
+import os
+import select
 import socket
+import termios
+import tty
 
 from bench.floor import bound
 from robostar.commands.files import DownloadFile, UploadFile
 from robostar.commands.status import ReadStatus
+from robostar.commands.system import ReadParameters
 from robostar.protocol.frame import ACK, encode_packet
 
-__all__ = ["RawHost", "download_request", "upload_packets"]
+__all__ = ["RawHost", "download_request", "parameter_request", "upload_packets"]
 
 _FLAG_END = 0x34
 
 
-class RawHost:
-    """A blocking socket to ``tcp://host:port`` that runs pre-encoded exchanges."""
+_PTY_WAIT = 5.0
+"""Seconds a pseudo-terminal read waits for the simulator before the host gives up."""
+
+
+class _Socket:
+    """A blocking TCP socket, its reads bounded by SO_RCVTIMEO."""
 
     def __init__(self, url: str) -> None:
         host, port = url.removeprefix("tcp://").rsplit(":", 1)
@@ -28,15 +38,53 @@ class RawHost:
         self.sock.settimeout(None)
         self.sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
         bound(self.sock)
+
+    def write(self, data: bytes) -> None:
+        self.sock.sendall(data)
+
+    def read(self) -> bytes:
+        return self.sock.recv(4096)
+
+    def close(self) -> None:
+        self.sock.close()
+
+
+class _Terminal:
+    """A pseudo-terminal's device in raw mode (8 data bits, no echo, no line editing)."""
+
+    def __init__(self, path: str) -> None:
+        self.fd = os.open(path, os.O_RDWR | os.O_NOCTTY)
+        tty.setraw(self.fd, termios.TCSANOW)
+
+    def write(self, data: bytes) -> None:
+        view = memoryview(data)
+        while view:
+            view = view[os.write(self.fd, view) :]
+
+    def read(self) -> bytes:
+        if not select.select([self.fd], [], [], _PTY_WAIT)[0]:
+            raise TimeoutError(f"no answer from the simulator in {_PTY_WAIT} s")
+        return os.read(self.fd, 4096)
+
+    def close(self) -> None:
+        os.close(self.fd)
+
+
+class RawHost:
+    """A blocking line to ``tcp://host:port`` or a pseudo-terminal's path that runs
+    pre-encoded exchanges."""
+
+    def __init__(self, url: str) -> None:
+        self.line = _Socket(url) if url.startswith("tcp://") else _Terminal(url)
         self._buf = b""
         self.moved = 0
         """Bytes written and read so far."""
 
     def close(self) -> None:
-        self.sock.close()
+        self.line.close()
 
     def _send(self, data: bytes) -> None:
-        self.sock.sendall(data)
+        self.line.write(data)
         self.moved += len(data)
 
     def _frame(self) -> bytes:
@@ -52,7 +100,7 @@ class RawHost:
                 self._buf = buf[end + 2 :]
                 self.moved += end + 2
                 return buf[: end + 2]
-            chunk = self.sock.recv(4096)
+            chunk = self.line.read()
             if not chunk:
                 raise EOFError("the simulator closed the connection")
             self._buf += chunk
@@ -65,7 +113,8 @@ class RawHost:
             self._send(bytes((ACK,)))
 
     def download(self, request: bytes) -> int:
-        """FA (``request`` framed): ACK every packet up to END; returns the packet count."""
+        """A multi-packet answer (FA, KE; ``request`` framed): ACK every packet up to END;
+        returns the packet count."""
         self._send(request)
         packets = 0
         while True:
@@ -94,3 +143,8 @@ def upload_packets(command: UploadFile) -> list[bytes]:
 
 def download_request(command: DownloadFile) -> bytes:
     return encode_packet(command.encode())
+
+
+def parameter_request(index: int) -> bytes:
+    """KE of one public parameter group, framed."""
+    return encode_packet(ReadParameters(None, index).encode())

@@ -43,7 +43,7 @@ def _items(quick: bool) -> dict[str, Item]:
         return {
             "host": lambda: host_cost.run(n=1000, rounds=7),
             "loopback": lambda: loopback.run(seconds=0.5, rounds=3),
-            "wire": lambda: wire.run(lines=500, polls=300, rounds=1),
+            "wire": lambda: wire.run(lines=500, polls=300, packets=30, rounds=1),
             "jog": lambda: jog.run(seconds=10.0),
             "cell": lambda: cell.run(sizes=(1, 8, 32), seconds=5.0),
             "memory": lambda: memory.run(exchanges=10_000),

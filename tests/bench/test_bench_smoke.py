@@ -61,11 +61,18 @@ def test_loopback() -> None:
 
 
 def test_wire_and_plot(tmp_path: Path) -> None:
-    results, rows = wire.run(lines=12, polls=5, rounds=1)
+    results, rows = wire.run(lines=12, polls=5, packets=2, rounds=1)
     _check_rows(rows, "3")
+    transfers = ("FB upload", "FA download", "AA polls", "250-byte packets")
+    expected = {wire.case_name(t, line) for t in transfers for line in ("tcp", "pty")}
+    assert set(results["cases"]) == expected == set(results["raw_host"])
     for case in results["cases"].values():
         assert case["bytes"] > 0 and case["seconds"] >= case["floor"] > 0
-    assert set(results["raw_host"]) == set(results["cases"])
+        assert case["host"] >= 0 and _finite(case["over"])
+    # one 250-byte answer packet per read, besides the request, END and the ACKs
+    assert results["cases"]["250-byte packets"]["bytes"] >= 2 * 250
+    assert set(results["hop_us"]) == {"tcp", "pty"}
+    assert all(_finite(hop) and hop > 0 for hop in results["hop_us"].values())
     plots.plot_wire(results, tmp_path / "wire.png")
     assert (tmp_path / "wire.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 

@@ -6,8 +6,8 @@ import asyncio
 import errno
 import os
 import socket
-import time
 import threading
+import time
 from collections.abc import Iterator
 
 import pytest
