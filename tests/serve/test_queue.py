@@ -141,6 +141,51 @@ def test_line_loss_and_reconnect() -> None:
     asyncio.run(main())
 
 
+def test_a_line_whose_client_cannot_even_be_made_is_down_not_hung() -> None:
+    """Any exception while opening (not only the library's own) leaves the line down and
+    retrying; start() returns after the first attempt instead of waiting for ever."""
+    made = []
+
+    def factory(config: LineConfig) -> AsyncClient:
+        made.append(config)
+        if len(made) < 2:
+            raise ValueError("Invalid IPv6 URL")
+        return _Unpluggable().client(config)
+
+    async def main() -> None:
+        line = Line(LineConfig("cell1", "sim://"), client_factory=factory)
+        async with asyncio.timeout(10):
+            await line.start()
+        try:
+            assert not line.up
+            assert "ValueError: Invalid IPv6 URL" in (line.health.last_error or "")
+            async with asyncio.timeout(10):
+                while not line.up:  # the worker lived on and tried again
+                    await asyncio.sleep(0.01)
+        finally:
+            await line.stop()
+
+    asyncio.run(main())
+
+
+def test_a_worker_that_dies_at_start_is_an_error_not_a_hang(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    async def broken_worker(self: Line) -> None:
+        raise RuntimeError("a bug")
+
+    monkeypatch.setattr(Line, "_worker", broken_worker)
+
+    async def main() -> None:
+        line = Line(LineConfig("cell1", "sim://"))
+        with pytest.raises(LineDownError, match="worker stopped at start: RuntimeError"):
+            async with asyncio.timeout(10):
+                await line.start()
+        await line.stop()
+
+    asyncio.run(main())
+
+
 def test_a_line_that_cannot_open_is_down_and_keeps_trying() -> None:
     async def main() -> None:
         plug = _Unpluggable()

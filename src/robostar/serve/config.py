@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import Any
 
 from robostar.errors import UsageError
+from robostar.transport.url import parse_url
 
 __all__ = [
     "FACE_NAMES",
@@ -59,6 +60,10 @@ class LineConfig:
             )
         if not self.url:
             raise ConfigError(f"{where}.url: missing")
+        try:
+            parse_url(self.url)  # a URL that cannot open is refused here, not found at start
+        except UsageError as exc:
+            raise ConfigError(f"{where}.url: {exc}") from None
         if self.baudrate is not None and self.baudrate <= 0:
             raise ConfigError(f"{where}.baudrate: {self.baudrate} is not a positive number")
         for key in ("timeout", "poll_interval", "slow_interval", "history_interval"):

@@ -164,11 +164,18 @@ class Line:
     async def start(self) -> None:
         """Start the worker and the poller; returns after the first attempt to open the line."""
         self._stopping = False
+        worker = asyncio.create_task(self._worker(), name=f"line {self.name} worker")
         self._tasks = [
-            asyncio.create_task(self._worker(), name=f"line {self.name} worker"),
+            worker,
             asyncio.create_task(self._poller(), name=f"line {self.name} poller"),
         ]
-        await self._first_attempt.wait()
+        # Should the worker die before its first attempt, say so instead of waiting for ever.
+        attempted = asyncio.create_task(self._first_attempt.wait())
+        await asyncio.wait((attempted, worker), return_when=asyncio.FIRST_COMPLETED)
+        if not attempted.done():
+            attempted.cancel()
+            error = worker.exception() if not worker.cancelled() else None
+            raise LineDownError(f"line {self.name}: its worker stopped at start: {error!r}")
 
     async def stop(self) -> None:
         """Stop running jogs, fail what is still queued, close the line."""
@@ -183,8 +190,12 @@ class Line:
         for task in self._tasks:
             task.cancel()
         for task in self._tasks:
-            with contextlib.suppress(asyncio.CancelledError):
+            try:
                 await task
+            except asyncio.CancelledError:
+                pass
+            except Exception:  # already reported where it surfaced; stopping must finish
+                log.debug("line %s: %s had failed", self.name, task.get_name(), exc_info=True)
         self._tasks = []
         await self._close_client()
         self._set_down("stopped")
@@ -382,13 +393,17 @@ class Line:
         self._set_down(self.health.last_error)
 
     async def _connect(self) -> bool:
-        client = self._client_factory(self.config)
+        client: AsyncClient | None = None
         try:
+            client = self._client_factory(self.config)
             await client.connect()
             info = await client.execute(ReadInfo())
-        except RobostarError as exc:
-            with contextlib.suppress(RobostarError):
-                await client.close()
+        except Exception as exc:  # whatever it is, the line is down: the worker must live on
+            if client is not None:
+                with contextlib.suppress(Exception):
+                    await client.close()
+            if not isinstance(exc, RobostarError):
+                log.error("line %s: cannot open %s", self.name, self.config.url, exc_info=exc)
             self.health.last_error = f"{type(exc).__name__}: {exc}"
             self.health.errors += 1
             return False

@@ -145,28 +145,25 @@ def parse_url(url: str, options: Mapping[str, object] | None = None) -> Endpoint
         if not path:
             raise UsageError(f"url {url!r}: serial:// needs a device, e.g. serial:///dev/ttyUSB0")
         return Endpoint(url, Kind.SERIAL, path, options={**dict(parse_qsl(query)), **extra})
-    if scheme == "tcp":
-        parts = urlsplit(url)
+    if scheme in ("tcp", "serve"):
         try:
-            port = parts.port or DEFAULT_TCP_PORT
-        except ValueError:
-            raise UsageError(f"url {url!r}: the port is not a number 1-65535") from None
-        if not parts.hostname:
-            raise UsageError(f"url {url!r}: tcp:// needs a host, e.g. tcp://192.0.2.10:20000")
+            parts = urlsplit(url)
+            port = parts.port or (DEFAULT_TCP_PORT if scheme == "tcp" else 8470)
+        except ValueError as exc:
+            # urlsplit refuses e.g. an unclosed [ of an IPv6 address; .port a bad number
+            bad_port = "port" in str(exc).lower()
+            reason = "the port is not a number 1-65535" if bad_port else str(exc)
+            raise UsageError(f"url {url!r}: {reason}") from None
         merged = {**dict(parse_qsl(parts.query)), **extra}
-        return Endpoint(url, Kind.TCP, parts.hostname, port, merged)
-    if scheme == "serve":
-        parts = urlsplit(url)
-        try:
-            port = parts.port or 8470
-        except ValueError:
-            raise UsageError(f"url {url!r}: the port is not a number 1-65535") from None
+        if scheme == "tcp":
+            if not parts.hostname:
+                raise UsageError(f"url {url!r}: tcp:// needs a host, e.g. tcp://192.0.2.10:20000")
+            return Endpoint(url, Kind.TCP, parts.hostname, port, merged)
         line = parts.path.strip("/")
         if not parts.hostname or not line:
             raise UsageError(
                 f"url {url!r}: serve:// needs HOST:PORT/LINE, e.g. serve://127.0.0.1:8470/cell1"
             )
-        merged = {**dict(parse_qsl(parts.query)), **extra}
         return Endpoint(url, Kind.SERVE, parts.hostname, port, {"line": line, **merged})
     if scheme == "sim":
         _, _, query = rest.partition("?")
