@@ -11,7 +11,7 @@ import pytest
 from robostar.commands.control import EmergencyStop, ReadSpeed, SetSpeed
 from robostar.commands.status import ReadStatus
 from robostar.errors import UsageError
-from robostar.serve import LeaseHeldError, LineServer, Quality, Who
+from robostar.serve import AuditError, LeaseHeldError, LineServer, Quality, Who
 
 from .conftest import sim_server
 
@@ -180,3 +180,60 @@ def test_a_write_wakes_the_poller_so_subscribers_see_it_at_once() -> None:
                             break
 
     asyncio.run(main())
+
+
+def test_an_audit_log_that_cannot_be_opened_stops_the_start(tmp_path: Path) -> None:
+    async def main() -> None:
+        with pytest.raises(AuditError, match="No such file or directory"):
+            async with sim_server(audit_path=str(tmp_path / "missing" / "audit.jsonl")):
+                pass
+
+    asyncio.run(main())
+
+
+class _FullDisk:
+    """A file whose writes fail as on a full disk, until ``full`` is cleared."""
+
+    def __init__(self) -> None:
+        self.full = True
+        self.lines: list[str] = []
+
+    def write(self, text: str) -> int:
+        if self.full:
+            raise OSError(28, "No space left on device")
+        self.lines.append(text)
+        return len(text)
+
+    def flush(self) -> None: ...
+
+    def close(self) -> None: ...
+
+
+def test_a_failed_audit_write_is_told_and_refuses_what_follows_but_not_stops(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    async def main() -> None:
+        async with sim_server(audit_path=str(tmp_path / "audit.jsonl")) as server:
+            line = server.lines["cell1"]
+            disk = _FullDisk()
+            server.audit._file = disk  # type: ignore[assignment]
+            # carried out: its answer is not lost to the audit (a retry would be a second copy)
+            await line.execute(SetSpeed(1, 44), who=ALICE, implicit_lease=True)
+            assert await line.read(ReadSpeed(1), max_age=0) == 44
+            assert "No space left on device" in (server.audit.failure or "")
+            assert any('"what": "SetSpeed' in r.getMessage() for r in caplog.records)
+            # what follows is refused before the wire while the log cannot be written
+            server.audit.path = tmp_path / "missing" / "audit.jsonl"
+            with pytest.raises(AuditError, match="audit log"):
+                await line.execute(SetSpeed(1, 55), who=ALICE, implicit_lease=True)
+            assert await line.read(ReadSpeed(1), max_age=0) == 44
+            await line.execute(EmergencyStop(), who=BOB)  # a stop is never refused for it
+            # writable again: the log reopens and state changes pass
+            server.audit.path = tmp_path / "audit.jsonl"
+            await line.execute(SetSpeed(1, 66), who=ALICE, implicit_lease=True)
+            assert server.audit.failure is None
+
+    asyncio.run(main())
+    records = [json.loads(x) for x in (tmp_path / "audit.jsonl").read_text().splitlines()]
+    assert [r["what"].split("(")[0] for r in records][-1] == "SetSpeed"
+    assert records[-1]["outcome"] == "ok"

@@ -1,5 +1,6 @@
 """The line server: one process owns the controllers' lines and serves every consumer (faces)."""
 
+from robostar.serve.audit import AuditError
 from robostar.serve.config import ConfigError, LineConfig, ServeConfig, load_config
 from robostar.serve.lease import Lease, LeaseHeldError, LeaseInfo, Who
 from robostar.serve.line import AbortedByStopError, Line, LineDownError, LineHealth
@@ -8,6 +9,7 @@ from robostar.serve.server import LineServer
 
 __all__ = [
     "AbortedByStopError",
+    "AuditError",
     "Change",
     "ConfigError",
     "ControllerModel",

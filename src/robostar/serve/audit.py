@@ -1,13 +1,31 @@
-"""The audit log: one JSON line per state-changing request (who, face, what, when, outcome)."""
+"""The audit log: one JSON line per state-changing request (who, face, what, when, outcome).
+
+The file is opened when the server starts, so a path that cannot be written stops the start
+with a clear error. Should a write fail later (a full disk), the entry goes to the process log
+instead, the request that was carried out is still answered as carried out (an answer lost
+to the audit would invite a second copy of a motion), and the log is marked failed: every
+further state change is refused (:class:`AuditError`, before anything reaches the wire) until
+the file can be written again. Stops are never refused for it.
+"""
 
 from __future__ import annotations
 
+import contextlib
 import json
+import logging
 import time
 from pathlib import Path
 from typing import IO
 
-__all__ = ["AuditLog"]
+from robostar.errors import RobostarError
+
+__all__ = ["AuditError", "AuditLog"]
+
+log = logging.getLogger(__name__)
+
+
+class AuditError(RobostarError):
+    """The audit log cannot be written, so state changes are refused until it can."""
 
 
 class AuditLog:
@@ -17,13 +35,33 @@ class AuditLog:
         self.path = Path(path) if path is not None else None
         self._file: IO[str] | None = None
         self.records = 0
+        self.failure: str | None = None
+        """Why the last write or open failed; None while the log is writable."""
+
+    def open(self) -> None:
+        """Open (or create) the file now; AuditError saying why if it cannot be."""
+        if self.path is None or self._file is not None:
+            return
+        try:
+            self._file = self.path.open("a", encoding="utf-8")
+        except OSError as exc:
+            self.failure = f"{self.path}: {exc.strerror or exc}"
+            raise AuditError(f"audit log {self.failure}") from exc
+        self.failure = None
+
+    def ready(self) -> None:
+        """Raise AuditError unless records can be written (after a failure, by reopening)."""
+        if self.failure is None:
+            return
+        self.close()
+        self.open()
 
     def write(self, *, line: str, who: str, face: str, what: str, outcome: str) -> None:
+        """Append one entry. Never raises: a failed write is logged with the whole entry and
+        leaves :attr:`failure` set (see :meth:`ready`)."""
         self.records += 1
         if self.path is None:
             return
-        if self._file is None:
-            self._file = self.path.open("a", encoding="utf-8")
         entry = {
             "at": round(time.time(), 6),
             "line": line,
@@ -32,10 +70,19 @@ class AuditLog:
             "what": what,
             "outcome": outcome,
         }
-        self._file.write(json.dumps(entry, ensure_ascii=False) + "\n")
-        self._file.flush()
+        text = json.dumps(entry, ensure_ascii=False)
+        try:
+            self.open()
+            assert self._file is not None
+            self._file.write(text + "\n")
+            self._file.flush()
+        except (OSError, AuditError) as exc:
+            if not isinstance(exc, AuditError):
+                self.failure = f"{self.path}: {exc.strerror or exc}"
+            log.error("audit log %s: this entry is not in it: %s", self.failure, text)
 
     def close(self) -> None:
-        if self._file is not None:
-            self._file.close()
-            self._file = None
+        file, self._file = self._file, None
+        if file is not None:
+            with contextlib.suppress(OSError):
+                file.close()

@@ -216,6 +216,7 @@ class Line:
         is_stop = isinstance(command, STOPS)
         if not is_stop:
             try:
+                self.audit.ready()  # nothing moves that the log cannot record (stops do)
                 if self.lease.held_by(who) or implicit_lease:
                     self.lease.acquire(who)
                 else:

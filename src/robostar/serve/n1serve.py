@@ -68,6 +68,12 @@ class LineBackend(Backend):
         except RobostarError as exc:
             self._refuse(request, f"line server: {exc}", _FLAG_FAILED)
             return
+        except Exception as exc:  # a bug: the host still gets an answer, never silence
+            log.exception("line %s: %s from %s failed", self.line.name, command.CODE, who.name)
+            self._refuse(
+                request, f"line server: internal error ({type(exc).__name__})", _FLAG_FAILED
+            )
+            return
         if not request.live:
             return
         request.answer(result)

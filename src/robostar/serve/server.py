@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import logging
 from collections.abc import Callable
 from types import TracebackType
@@ -50,6 +49,7 @@ class LineServer:
 
     async def start(self) -> None:
         """Open every line (one attempt each: a down line keeps retrying), then the faces."""
+        self.audit.open()  # a log that cannot be written stops the start, with its reason
         self._started = True
         await asyncio.gather(*(line.start() for line in self.lines.values()))
         try:
@@ -70,8 +70,7 @@ class LineServer:
             except Exception:
                 log.exception("face %s did not stop cleanly", name)
         await asyncio.gather(*(line.stop() for line in self.lines.values()))
-        with contextlib.suppress(OSError):
-            self.audit.close()
+        self.audit.close()
         self._started = False
 
     async def __aenter__(self) -> Self:
