@@ -15,6 +15,7 @@ from robostar.errors import LinkRuleError, PacketTooLongError, UsageError
 from robostar.protocol.frame import ACK, NAK, RST, encode_packet
 from robostar.protocol.link import (
     APP_TURN,
+    MAX_BACKLOG,
     MAX_NAKS,
     MAX_RESENDS,
     TRANSITIONS,
@@ -2727,3 +2728,16 @@ def test_an_upload_line_is_resent_once_for_a_nak_storm() -> None:
     assert deadline is not None
     [failed] = failures(host.handle_timeout(deadline))
     assert failed.reason is FailReason.TIMEOUT
+
+
+def test_a_flooding_host_cannot_make_the_controller_hold_unbounded_input() -> None:
+    """Requests sent behind the one being handled are held up to MAX_BACKLOG frames; the rest
+    are dropped and counted, as a UART with a full buffer loses what comes next."""
+    ctl = ControllerLink()
+    request = encode_packet(AA)
+    assert ctl.receive_data(request, 0.0) == [RequestReceived(AA)]
+    ctl.receive_data(request * (MAX_BACKLOG + 500), 0.0)  # while the application has its turn
+    assert ctl.overrun_frames == 500
+    ctl.receive_data(request * 10, 0.0)
+    assert ctl.overrun_frames == 510
+    assert len(ctl._backlog) == MAX_BACKLOG

@@ -66,6 +66,9 @@ MAX_ANNOUNCED_WAIT = 99.0
 MAX_MULTI_PACKETS = 10_002
 """Packets a multi-packet answer may take when the request does not say (a 9999-step job with
 its announcement and END); past it the answer is cut with RST."""
+MAX_BACKLOG = 64
+"""Frames held for an application that has its turn when more arrive (requests pipelined
+behind the one being handled); more are dropped and counted in ``overrun_frames``."""
 
 
 class Role(enum.Enum):
@@ -379,6 +382,9 @@ class Link:
         self._resend_unsent = False  # a resend is in _out, not yet handed to the driver
         self._send_once = False  # host: the current exchange changes state (no doubtful resend)
         self._doubt = ""  # host: why the current exchange's outcome may be unknown
+        self.overrun_frames = 0
+        """Frames received while :data:`MAX_BACKLOG` were already held, and dropped (as a UART
+        whose buffer is full loses what comes next)."""
         self.corrupt_frames = 0
         """Damaged frames received so far (a controller reports the last one's reason in KD)."""
         self.last_corrupt: CorruptReason | None = None
@@ -387,9 +393,17 @@ class Link:
     def receive_data(self, data: bytes, now: float) -> list[LinkEvent]:
         """Feed bytes from the line."""
         self._now = now
-        self._backlog.extend(self.decoder.feed(data))
-        if self._backlog:
+        backlog = self._backlog
+        waiting = self.state in APP_TURN  # the application is busy with the last request
+        backlog.extend(self.decoder.feed(data))
+        if backlog:
             self._take_backlog()
+            if waiting and len(backlog) > MAX_BACKLOG:
+                # A peer that keeps sending while its last request is being handled cannot
+                # hold unbounded memory (one read's worth is held when the application is
+                # free, as it takes the frames in turn before more are read).
+                self.overrun_frames += len(backlog) - MAX_BACKLOG
+                del backlog[MAX_BACKLOG:]
         return self._take_events()
 
     def data_to_send(self) -> bytes:
