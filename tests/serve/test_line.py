@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import asyncio
 import json
+import time
 from pathlib import Path
 
 import pytest
@@ -11,7 +12,17 @@ import pytest
 from robostar.commands.control import EmergencyStop, ReadSpeed, SetSpeed
 from robostar.commands.status import ReadStatus
 from robostar.errors import UsageError
-from robostar.serve import AuditError, LeaseHeldError, LineServer, Quality, Who
+from robostar.serve import (
+    AuditError,
+    LeaseHeldError,
+    LineBusyError,
+    LineConfig,
+    LineServer,
+    Quality,
+    ServeConfig,
+    Who,
+)
+from robostar.serve.line import MAX_QUEUED_READS, stale_after
 
 from .conftest import sim_server
 
@@ -237,3 +248,73 @@ def test_a_failed_audit_write_is_told_and_refuses_what_follows_but_not_stops(
     records = [json.loads(x) for x in (tmp_path / "audit.jsonl").read_text().splitlines()]
     assert [r["what"].split("(")[0] for r in records][-1] == "SetSpeed"
     assert records[-1]["outcome"] == "ok"
+
+
+def _flooded_line(**config: float) -> LineServer:
+    line = LineConfig("cell1", "sim://", poll_interval=0.05, slow_interval=0.1, **config)
+    return LineServer(ServeConfig(lines=(line,), faces={}))
+
+
+def test_no_number_of_readers_can_starve_the_poller() -> None:
+    async def main() -> None:
+        async with _flooded_line() as server:
+            line = server.lines["cell1"]
+            await line.wait_polled()
+            stop = asyncio.Event()
+
+            async def reader() -> None:
+                while not stop.is_set():
+                    await line.read(ReadSpeed(1), max_age=0)
+
+            readers = [asyncio.create_task(reader()) for _ in range(40)]
+            await asyncio.sleep(0.3)  # the queue always holds reads from here on
+            flooded = time.time()
+            await asyncio.sleep(1.5)
+            stop.set()
+            await asyncio.gather(*readers)
+            # polls waited at most about stale_after (0.25 s here), then went first
+            assert line.health.last_poll is not None and line.health.last_poll > flooded
+
+    asyncio.run(main())
+
+
+def test_values_nobody_refreshes_are_marked_stale(monkeypatch: pytest.MonkeyPatch) -> None:
+    async def main() -> None:
+        async with _flooded_line() as server:
+            line = server.lines["cell1"]
+            await line.wait_polled()
+            assert line.model.get("ch1/status").quality is Quality.GOOD  # type: ignore[union-attr]
+            stuck = asyncio.Event()
+
+            async def hang(command: object) -> None:
+                await stuck.wait()
+
+            monkeypatch.setattr(line, "_poll_one", hang)  # a poller that never gets through
+            limit = stale_after(line.config)
+            async with asyncio.timeout(limit + 5):
+                while line.model.get("ch1/status").quality is not Quality.STALE:  # type: ignore[union-attr]
+                    await asyncio.sleep(0.02)
+            assert line.health.poll_age is not None and line.health.poll_age > limit
+            assert line.model.get("info").quality is Quality.GOOD  # type: ignore[union-attr]
+            stuck.set()
+
+    asyncio.run(main())
+
+
+def test_a_read_past_the_queue_bound_is_refused_before_the_wire() -> None:
+    async def main() -> None:
+        async with _flooded_line() as server:
+            line = server.lines["cell1"]
+            await line.wait_polled()
+            sent = line.health.exchanges
+            results = await asyncio.gather(
+                *(line.read(ReadSpeed(1), max_age=0) for _ in range(MAX_QUEUED_READS + 100)),
+                return_exceptions=True,
+            )
+            busy = [r for r in results if isinstance(r, LineBusyError)]
+            assert len(busy) >= 50 and "reads are waiting" in str(busy[0])
+            assert all(isinstance(r, int | LineBusyError) for r in results)
+            assert line.health.exchanges - sent < MAX_QUEUED_READS + 50  # not sent
+            assert await line.read(ReadSpeed(1), max_age=0) >= 0  # and serving again
+
+    asyncio.run(main())

@@ -3,7 +3,7 @@
 from robostar.serve.audit import AuditError
 from robostar.serve.config import ConfigError, LineConfig, ServeConfig, load_config
 from robostar.serve.lease import Lease, LeaseHeldError, LeaseInfo, Who
-from robostar.serve.line import AbortedByStopError, Line, LineDownError, LineHealth
+from robostar.serve.line import AbortedByStopError, Line, LineBusyError, LineDownError, LineHealth
 from robostar.serve.model import Change, ControllerModel, Quality, Sample, Subscription
 from robostar.serve.server import LineServer
 
@@ -17,6 +17,7 @@ __all__ = [
     "LeaseHeldError",
     "LeaseInfo",
     "Line",
+    "LineBusyError",
     "LineConfig",
     "LineDownError",
     "LineHealth",

@@ -50,7 +50,15 @@ STOPS = (EmergencyStop, StopJob, StopHoming, JogStop)
 _TRANSFERS = (UploadFile, DownloadFile, ReadAlarmHistory)
 """Long multi-packet exchanges a stop cancels rather than waits for."""
 
-PRI_STOP, PRI_KEEPALIVE, PRI_WRITE, PRI_READ, PRI_POLL = range(5)
+PRI_STOP, PRI_KEEPALIVE, PRI_WRITE, PRI_LATE_POLL, PRI_READ, PRI_POLL = range(6)
+"""Queue order. The poller's reads come last, unless the model has gone unrefreshed for
+:func:`stale_after`: then they go before the consumers' reads (PRI_LATE_POLL), so that no
+number of readers can starve it."""
+_STEADY_KEYS = frozenset(("info", "online"))
+"""Model values set when the line opens or closes, not by the poller."""
+MAX_QUEUED_READS = 256
+"""Consumers' reads waiting for the line at once; past it a read is refused (LineBusyError)
+instead of making every later request, and the poller, wait behind it."""
 _MAX_TIMEOUTS = 3
 """Consecutive reply timeouts after which the line is taken for down and reopened."""
 _BACKOFF = (0.2, 0.5, 1.0, 2.0, 5.0, 10.0)
@@ -58,6 +66,16 @@ _BACKOFF = (0.2, 0.5, 1.0, 2.0, 5.0, 10.0)
 
 class LineDownError(LineError):
     """The line is down (or the server is stopping); nothing was sent."""
+
+
+class LineBusyError(LineError):
+    """Too many reads are waiting for this line; nothing was sent. Try again shortly."""
+
+
+def stale_after(config: LineConfig) -> float:
+    """Seconds without a complete poll after which the model's values are no longer vouched
+    for (marked STALE), and the poller's reads jump ahead of the consumers'."""
+    return max(5 * config.poll_interval, 2 * config.slow_interval)
 
 
 class AbortedByStopError(LineError):
@@ -156,6 +174,7 @@ class Line:
         self._jogs: dict[int, Who] = {}
         self._unsupported: set[str] = set()
         self._poll_now = asyncio.Event()
+        self._reads_waiting = 0
         self._written = False
         self.info: ControllerInfo | None = None
         self.lease.on_lost.append(self._lease_lost)
@@ -168,6 +187,7 @@ class Line:
         self._tasks = [
             worker,
             asyncio.create_task(self._poller(), name=f"line {self.name} poller"),
+            asyncio.create_task(self._watch_staleness(), name=f"line {self.name} staleness"),
         ]
         # Should the worker die before its first attempt, say so instead of waiting for ever.
         attempted = asyncio.create_task(self._first_attempt.wait())
@@ -251,12 +271,26 @@ class Line:
         cached = self._from_model(command, limit)
         if cached is not None:
             return cast(R, cached[0])
-        result = await self._submit(command, PRI_READ, None)
+        if self._reads_waiting >= MAX_QUEUED_READS:
+            raise LineBusyError(
+                f"line {self.name}: {self._reads_waiting} reads are waiting for the line;"
+                " nothing was sent, try again shortly"
+            )
+        self._reads_waiting += 1
+        try:
+            result = await self._submit(command, PRI_READ, None)
+        finally:
+            self._reads_waiting -= 1
         self._store(command, result)
         return result
 
     # -- the queue -------------------------------------------------------------------------
     async def _submit(self, command: Command[R], priority: int, who: Who | None) -> R:
+        self._check_open()
+        return await self._enqueue(command, priority, who)
+
+    def _check_open(self) -> None:
+        """LineDownError unless the line can take requests now."""
         if self._stopping:
             raise LineDownError(f"line {self.name}: the server is stopping")
         if not self._up.is_set():
@@ -264,12 +298,16 @@ class Line:
                 f"line {self.name} is down ({self.health.last_error or 'not connected yet'});"
                 " nothing was sent"
             )
+
+    def _enqueue(self, command: Command[R], priority: int, who: Who | None) -> asyncio.Future[R]:
+        """Queue ``command``; its future gets the result. A job whose future is done (e.g.
+        cancelled) before the worker reaches it is skipped."""
         command.encode()  # bad input fails here, before it waits in the queue or reaches the wire
         future: asyncio.Future[R] = asyncio.get_running_loop().create_future()
         self._queue.put_nowait(_Job(priority, next(self._seq), command, future, who))
         if priority == PRI_STOP:
             self._preempt(command)
-        return await future
+        return future
 
     def _preempt(self, stop: Command[Any]) -> None:
         job, task = self._current, self._current_task
@@ -531,18 +569,47 @@ class Line:
             finally:
                 waiter.cancel()
 
+    async def _watch_staleness(self) -> None:
+        """Mark the model's good values STALE while no poll has completed for a while (a
+        starved or stuck poller): a value nobody re-read must not keep saying "good"."""
+        limit = stale_after(self.config)
+        while True:
+            await asyncio.sleep(self.config.poll_interval)
+            age = self.health.poll_age
+            if self._up.is_set() and age is not None and age > limit:
+                self.model.age_out(time.time() - limit, keep=_STEADY_KEYS)
+
     async def _poll_one(self, command: Command[Any]) -> None:
         key = model_key(command) or command.CODE
         if key in self._unsupported:
             return
         try:
-            result = await self._submit(command, PRI_POLL, None)
+            result = await self._poll_read(command)
         except ControllerError as exc:
             # a channel without a robot, an option the controller lacks: stop asking
             log.info("line %s: %s not polled any more (%s)", self.name, key, exc)
             self._unsupported.add(key)
             return
         self._store(command, result)
+
+    async def _poll_read(self, command: Command[R]) -> R:
+        """A poll read: behind the consumers' reads, until the model would go stale waiting;
+        from then on (the job requeued if it waits still) ahead of them."""
+        limit = stale_after(self.config)
+        age = self.health.poll_age or 0.0
+        if age > limit:
+            return await self._submit(command, PRI_LATE_POLL, None)
+        self._check_open()
+        future = self._enqueue(command, PRI_POLL, None)
+        try:
+            done, _ = await asyncio.wait({future}, timeout=limit - age)
+        except asyncio.CancelledError:
+            future.cancel()
+            raise
+        if not done:
+            future.cancel()  # the worker skips it (or, already running, its result is dropped)
+            return await self._submit(command, PRI_LATE_POLL, None)
+        return future.result()
 
     async def wait_polled(self, timeout: float = 5.0) -> None:
         """Wait until a complete poll cycle has ended after now (tests, the CLI's start-up)."""

@@ -11,6 +11,7 @@ import asyncio
 import enum
 import time
 from collections import OrderedDict
+from collections.abc import Collection
 from dataclasses import dataclass, replace
 from typing import Any, Self
 
@@ -167,6 +168,14 @@ class ControllerModel:
         for key, sample in self._values.items():
             if sample.quality is not quality and (only is None or sample.quality is only):
                 self._values[key] = replace(sample, quality=quality)
+                self._publish(key, self._values[key])
+
+    def age_out(self, before: float, *, keep: Collection[str] = ()) -> None:
+        """Mark STALE the good values read before ``before`` (a ``time.time()``), except the
+        keys in ``keep`` (values that do not change while the line is up)."""
+        for key, sample in self._values.items():
+            if sample.quality is Quality.GOOD and sample.at < before and key not in keep:
+                self._values[key] = replace(sample, quality=Quality.STALE)
                 self._publish(key, self._values[key])
 
     def _publish(self, key: str, sample: Sample) -> None:
