@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import asyncio
 import signal
 import socket
 import subprocess
 import sys
+import urllib.error
 import urllib.request
 from pathlib import Path
 
@@ -14,6 +16,7 @@ from click.testing import CliRunner
 
 from robostar import Client
 from robostar.cli.app import cli
+from robostar.errors import UsageError
 from robostar.serve import ConfigError, load_config
 
 GOOD = """
@@ -151,3 +154,37 @@ def test_a_served_line_works_for_a_client_and_stops_on_sigterm(tmp_path: Path) -
             proc.kill()
             proc.wait()
     assert '"SetSpeed' in audit.read_text() or "SetSpeed" in audit.read_text()
+
+
+def test_metrics_with_a_token_want_it_and_remote_metrics_need_one() -> None:
+    from robostar.serve.faces import metrics as metrics_face
+
+    from .conftest import sim_server
+
+    with pytest.raises(UsageError, match="needs a token"):
+        metrics_face.create(sim_server(), {"listen": "0.0.0.0:0", "allow_remote": True})
+
+    async def main() -> None:
+        async with sim_server() as server:
+            face = metrics_face.create(server, {"listen": "127.0.0.1:0", "token": "s3cret"})
+            await face.start()
+            try:
+                assert face.address is not None
+                url = f"http://127.0.0.1:{face.address[1]}/metrics"
+
+                def get(headers: dict[str, str]) -> tuple[int, str]:
+                    request = urllib.request.Request(url, headers=headers)
+                    try:
+                        with urllib.request.urlopen(request, timeout=5) as reply:
+                            return reply.status, reply.read().decode()
+                    except urllib.error.HTTPError as error:
+                        return error.code, ""
+
+                assert (await asyncio.to_thread(get, {}))[0] == 401
+                assert (await asyncio.to_thread(get, {"Authorization": "Bearer nope"}))[0] == 401
+                status, text = await asyncio.to_thread(get, {"Authorization": "Bearer s3cret"})
+                assert status == 200 and "robostar_line_up" in text
+            finally:
+                await face.stop()
+
+    asyncio.run(main())

@@ -1,9 +1,14 @@
-"""The metrics face: a Prometheus text endpoint (``GET /metrics``) with per-line figures."""
+"""The metrics face: a Prometheus text endpoint (``GET /metrics``) with per-line figures.
+
+With a token configured (required beyond loopback) a scrape must send it as
+``Authorization: Bearer TOKEN`` (Prometheus: ``authorization: {credentials: TOKEN}``).
+"""
 
 from __future__ import annotations
 
 import asyncio
 import contextlib
+import hmac
 import logging
 from collections.abc import Iterator, Mapping
 from typing import TYPE_CHECKING, Any
@@ -100,10 +105,19 @@ def registry_for(server: LineServer) -> CollectorRegistry:
 class MetricsFace:
     """A minimal asyncio HTTP server answering ``GET /metrics`` (and 404 for anything else)."""
 
-    def __init__(self, server: LineServer, listen: tuple[str, int], allow_remote: bool) -> None:
+    def __init__(
+        self,
+        server: LineServer,
+        listen: tuple[str, int],
+        allow_remote: bool,
+        token: str | None = None,
+    ) -> None:
+        if allow_remote and not token:
+            raise UsageError("metrics: allow_remote needs a token")
         self.registry = registry_for(server)
         self.listen = listen
         self.allow_remote = allow_remote
+        self._authorization = None if token is None else f"Bearer {token}".encode()
         self.address: tuple[str, int] | None = None
         self._server: asyncio.Server | None = None
 
@@ -120,7 +134,13 @@ class MetricsFace:
         try:
             request = await asyncio.wait_for(reader.readuntil(b"\r\n\r\n"), 5.0)
             target = request.split(b" ", 2)[1] if request.count(b" ") >= 2 else b""
-            if request.startswith(b"GET ") and target.split(b"?")[0] == b"/metrics":
+            if not self._authorized(request):
+                body = b"a token is needed: Authorization: Bearer TOKEN\n"
+                head = (
+                    b"HTTP/1.1 401 Unauthorized\r\nContent-Type: text/plain\r\n"
+                    b'WWW-Authenticate: Bearer realm="robostar"\r\n'
+                )
+            elif request.startswith(b"GET ") and target.split(b"?")[0] == b"/metrics":
                 body = generate_latest(self.registry)
                 head = b"HTTP/1.1 200 OK\r\nContent-Type: text/plain; version=0.0.4\r\n"
             else:
@@ -137,6 +157,15 @@ class MetricsFace:
             with contextlib.suppress(OSError):
                 await writer.wait_closed()
 
+    def _authorized(self, request: bytes) -> bool:
+        if self._authorization is None:
+            return True
+        for line in request.split(b"\r\n")[1:]:
+            name, _, value = line.partition(b":")
+            if name.strip().lower() == b"authorization":
+                return hmac.compare_digest(value.strip(), self._authorization)
+        return False
+
     async def stop(self) -> None:
         server, self._server = self._server, None
         if server is not None:
@@ -145,8 +174,12 @@ class MetricsFace:
 
 
 def create(server: LineServer, options: Mapping[str, Any]) -> MetricsFace:
-    """``options``: ``{"listen": "HOST:PORT", "allow_remote": bool}``."""
+    """``options``: ``{"listen": "HOST:PORT", "allow_remote": bool, "token": str}``."""
     listen = options.get("listen")
     if not isinstance(listen, str):
         raise UsageError('metrics.listen: expected "HOST:PORT"')
-    return MetricsFace(server, parse_listen(listen), bool(options.get("allow_remote", False)))
+    token = options.get("token")
+    if token is not None and not isinstance(token, str):
+        raise UsageError("metrics.token: expected a string")
+    allow_remote = bool(options.get("allow_remote", False))
+    return MetricsFace(server, parse_listen(listen), allow_remote, token)
