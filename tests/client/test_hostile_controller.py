@@ -139,18 +139,40 @@ def test_a_read_survives_naks_with_a_resend_for_each() -> None:
 def test_a_controller_repeating_its_previous_answer_cannot_hold_the_client() -> None:
     # The second CB is "answered" by a copy of the first answer again and again, each late
     # enough to pass for a resend. Every copy is ACKed; the exchange still ends at its limit.
-    def script(data: bytes, n: int) -> Reply:
-        if n == 1:
-            return [(0.0, OK)]
-        return [(0.28 * k, OK) for k in range(1, 200)]
+    # The copies pass for resends only while the second request goes out right behind the ACK
+    # of the first answer (within the link's resend_gap, 0.25 s); sent later, a copy is a slow
+    # controller's answer to it (the rule is right). A machine so loaded that the client took
+    # that long between the two is not this test's case: it is run again.
+    for _ in range(5):
+        acked: list[float] = []
+        asked: list[float] = []
 
-    peer = Scripted(script)
-    with client(peer) as robot:
-        robot.set_speed(1, 40)
-        started = time.monotonic()
-        with pytest.raises(OutcomeUnknownError, match="overall limit"):
-            robot.set_speed(1, 50)
-        took = time.monotonic() - started
+        def script(data: bytes, n: int, asked: list[float] = asked) -> Reply:
+            asked.append(time.monotonic())
+            if n == 1:
+                return [(0.0, OK)]
+            return [(0.28 * k, OK) for k in range(1, 200)]
+
+        def on_ack(n: int, acked: list[float] = acked) -> Reply:
+            acked.append(time.monotonic())
+            return ()
+
+        peer = Scripted(script, on_ack)
+        with client(peer) as robot:
+            robot.set_speed(1, 40)
+            started = time.monotonic()
+            try:
+                robot.set_speed(1, 50)
+            except OutcomeUnknownError as error:
+                outcome: BaseException | None = error
+            else:
+                outcome = None
+            took = time.monotonic() - started
+        if asked[1] - acked[0] < 0.2:
+            break
+    else:
+        pytest.skip("the machine never let the client send its request behind its ACK")
+    assert isinstance(outcome, OutcomeUnknownError) and "overall limit" in str(outcome)
     # timeout x (3 NAKs + 1) + (timeout + grace) for its one packet, and slack for the machine
     assert took < 0.3 * 4 + 0.8 + 2.0
 
