@@ -2741,3 +2741,23 @@ def test_a_flooding_host_cannot_make_the_controller_hold_unbounded_input() -> No
     ctl.receive_data(request * 10, 0.0)
     assert ctl.overrun_frames == 510
     assert len(ctl._backlog) == MAX_BACKLOG
+
+
+def test_a_line_that_never_goes_quiet_cannot_hold_a_request_for_ever() -> None:
+    """Each stale packet in the resync gap restarts it, but the resync ends at the latest when
+    a controller resending an unacknowledged answer would have given up."""
+    host = HostLink(timeout=1.0, resync_gap=1.0)
+    host.send_request(AA, Shape.SINGLE, 0.0)
+    host.data_to_send()
+    host.handle_timeout(1.0)  # no answer: RST, then the gap
+    assert host.data_to_send() == bytes((RST,)) and host.state is State.RESYNC
+    host.send_request(b"\xffAB", Shape.SINGLE, 1.0)  # deferred until the line is quiet
+    now = 1.0
+    cap = 1.0 + (MAX_RESENDS + 1) * 1.0 + host.resend_grace
+    while host.state is State.RESYNC:
+        now = round(now + 0.3, 3)
+        assert now <= cap + 0.3, "the request was held past the cap"
+        host.receive_data(encode_packet(b"\x30"), now)  # chatter: restarts the gap
+        host.handle_timeout(now)
+    assert host.state is State.WAIT_ANSWER
+    assert now == pytest.approx(cap, abs=0.31)

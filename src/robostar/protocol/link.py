@@ -619,12 +619,14 @@ class HostLink(Link):
     Two guards keep a faulty line from making a command run twice or an answer land on the
     wrong request. After this end sends RST it stays quiet until the line has been silent for
     ``resync_gap`` seconds (state RESYNC): a stale packet still in flight is answered with RST
-    and restarts the gap, a NAK for an old frame is ignored, and a new request waits until the
-    gap is over. (The client sets the gap to its reply timeout, so an answer held back by a
-    device server for up to twice the timeout cannot land on the next request.) And after
-    ACKing a packet that is not the last, it waits ``timeout + resend_grace`` for the next one,
-    so that a controller resending after its own timeout (our ACK was lost) is heard before we
-    give up.
+    and restarts the gap (the whole resync ends at the latest when a controller resending an
+    unacknowledged answer would have given up: ``(MAX_RESENDS + 1) * peer_resend_after +
+    resend_grace`` after the RST), a NAK for an old frame is ignored, and a new request waits
+    until the gap is over. (The client sets the gap to its reply timeout, so an answer held
+    back by a device server for up to twice the timeout cannot land on the next request.) And
+    after ACKing a packet that is not the last, it waits ``timeout + resend_grace`` for the
+    next one, so that a controller resending after its own timeout (our ACK was lost) is heard
+    before we give up.
 
     A copy of the answer just ACKed is only taken for the controller's resend when it comes
     late enough for one: the controller resends after its own timeout (``peer_resend_after``,
@@ -665,6 +667,7 @@ class HostLink(Link):
         self.shape = Shape.SINGLE
         self._deferred: tuple[bytes, Shape, bool, int | None] | None = None
         self._request_at = 0.0
+        self._resync_until = 0.0  # a resync gap, however often restarted, ends by then
         self._limit_at: float | None = None  # the exchange's overall limit
         self._max_packets = 1
         self._packets = 0
@@ -785,6 +788,12 @@ class HostLink(Link):
         gap = self.abort_gap if self._aborting else self.resync_gap
         if gap > 0:
             self.state = State.RESYNC
+            # However chatty the line, the resync ends by then (a request deferred meanwhile
+            # waits no longer): a controller resending an unacknowledged answer has given up
+            # after its last resend, and what still comes is not a resend.
+            self._resync_until = (
+                self._now + (MAX_RESENDS + 1) * self.peer_resend_after + (self.resend_grace)
+            )
             self._arm(gap)
 
     def _abort(self, data: bytes) -> None:
@@ -830,12 +839,16 @@ class HostLink(Link):
         # line to be quiet for the whole gap again before the next request goes out.
         self._good_packet()
         self._send_control(RST)
-        self._arm(self.resync_gap)
+        self._rearm_resync()
         self._emit(Ignored("stale packet in the resync gap (RST)", self.state))
 
     def _h_resync_noise(self, data: bytes) -> None:
-        self._arm(self.resync_gap)
+        self._rearm_resync()
         self._emit(Ignored("corrupt frame in the resync gap", self.state))
+
+    def _rearm_resync(self) -> None:
+        """The line is not quiet: wait the whole gap again, but not past the resync's end."""
+        self._arm(max(0.0, min(self.resync_gap, self._resync_until - self._now)))
 
     def _is_resend(self, data: bytes) -> bool:
         """Is ``data`` the controller resending the answer we ACKed last (our ACK was lost)?"""
