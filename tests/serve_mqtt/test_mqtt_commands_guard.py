@@ -397,3 +397,21 @@ def test_bad_command_limits_are_refused_naming_the_key(commands: dict[str, Any],
         settings_from({"url": "mqtt://h", "commands": {"enabled": True, **commands}})
     defaults = settings_from({"url": "mqtt://h"})
     assert (defaults.max_pending, defaults.max_payload) == (16, 16_384)
+
+
+def test_a_full_client_queue_is_logged_once_in_a_while() -> None:
+    import logging
+
+    from robostar.serve.faces.mqtt import QueueFullFilter
+
+    shown = QueueFullFilter(every=3600)
+
+    def record(message: str) -> logging.LogRecord:
+        return logging.LogRecord("x", logging.WARNING, __file__, 1, message, (), None)
+
+    full = "Message queue is full. Discarding message."
+    assert [shown.filter(record(full)) for _ in range(5)] == [True, False, False, False, False]
+    assert shown.held == 4 and shown.filter(record("something else"))
+    shown._next = 0.0
+    again = record(full)
+    assert shown.filter(again) and "4 more" in again.getMessage() and shown.held == 0

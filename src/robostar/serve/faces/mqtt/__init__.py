@@ -76,7 +76,8 @@ _STOP_NAMES = frozenset((ESTOP, "stop_job"))
 """Commands that jump every queue at the line: they have their own lane in the face too."""
 INCOMING_QUEUE = 256
 """aiomqtt's own queue of received messages per connection. Past it the client discards what
-arrives (aiomqtt logs each), so a flood costs bounded memory even before the face reads it."""
+arrives (logged once in a while: QueueFullFilter), so a flood costs bounded memory even before
+the face reads it."""
 
 
 @dataclass(frozen=True)
@@ -210,6 +211,36 @@ async def _wait_event(event: asyncio.Event, timeout: float | None) -> None:
 def _short(text: str, size: int = 80) -> str:
     """A name from the wire, cut to a size fit for a message or the audit log."""
     return text if len(text) <= size else f"{text[:size]}..."
+
+
+class QueueFullFilter(logging.Filter):
+    """aiomqtt logs every message it discards from its full queue: a flood would write a line
+    per message. This lets one through per ``every`` seconds, with how many it held back."""
+
+    def __init__(self, every: float = 10.0) -> None:
+        super().__init__()
+        self.every = every
+        self.held = 0
+        self._next = 0.0
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        if not record.getMessage().startswith("Message queue is full"):
+            return True
+        now = time.monotonic()
+        if now < self._next:
+            self.held += 1
+            return False
+        self._next = now + self.every
+        if self.held:
+            record.msg = f"{record.getMessage()} ({self.held:,} more since the last report)"
+            record.args = ()
+            self.held = 0
+        return True
+
+
+client_log = logging.getLogger("robostar.serve.mqtt.client")
+"""The logger of the face's MQTT clients (aiomqtt's messages)."""
+client_log.addFilter(QueueFullFilter())
 
 
 class BusyError(RobostarError):
@@ -549,6 +580,7 @@ class MqttFace:
             keepalive=10,
             timeout=s.publish_timeout,
             max_queued_incoming_messages=INCOMING_QUEUE,
+            logger=client_log,
         )
 
     async def start(self) -> None:
