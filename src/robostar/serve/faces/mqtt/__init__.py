@@ -485,16 +485,21 @@ class _LineLink:
         command: Command[Any] | None = None,
         request_id: Any = None,
     ) -> None:
-        """Audit a refusal of the face's own and answer it."""
-        what = command if command is not None else f"cmd/{_short(name)}"
+        """Audit a refusal of the face's own and answer it. Never raises: the reader calls it,
+        and the reader must live as long as the connection."""
         try:
+            what = command if command is not None else f"cmd/{_short(name)}"
             self.line.record(what, self.face.who, f"refused: {problem}")
         except Exception:  # the audit log's own trouble must not end the connection's reader
             log.exception("mqtt %s: a refusal was not audited", self.line.name)
-        if request_id is None:
-            request_id = self._request_id(message)
-        reply_to, _ = self._reply_topic(message, name)
-        body = {"ok": False, "error": str(problem), "kind": type(problem).__name__}
+        try:
+            if request_id is None:
+                request_id = self._request_id(message)
+            reply_to, _ = self._reply_topic(message, name)
+            body = {"ok": False, "error": str(problem), "kind": type(problem).__name__}
+        except Exception:
+            log.exception("mqtt %s: a refusal was not answered", self.line.name)
+            return
         await self._reply(client, message, reply_to, body, request_id)
 
     async def _command(self, client: aiomqtt.Client, message: aiomqtt.Message, name: str) -> None:
