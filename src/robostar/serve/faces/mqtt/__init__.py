@@ -29,12 +29,13 @@ import aiomqtt
 from paho.mqtt.packettypes import PacketTypes
 from paho.mqtt.properties import Properties
 
+from robostar.commands.base import Command
 from robostar.errors import RobostarError, UsageError
 from robostar.serve.faces.mqtt.buffer import StoreAndForward
-from robostar.serve.faces.mqtt.commands import COMMANDS, ESTOP, build_command, read_params
+from robostar.serve.faces.mqtt.commands import COMMANDS, ESTOP, make_command, read_params
 from robostar.serve.faces.mqtt.payload import encode
 from robostar.serve.faces.mqtt.reporter import Reporter
-from robostar.serve.faces.mqtt.topics import Topics, check_prefix
+from robostar.serve.faces.mqtt.topics import Topics, check_prefix, response_topic_problem
 from robostar.serve.jsonable import jsonable
 from robostar.serve.lease import Who
 from robostar.serve.model import Sample
@@ -43,7 +44,7 @@ if TYPE_CHECKING:
     from robostar.serve.line import Line
     from robostar.serve.server import LineServer
 
-__all__ = ["MqttFace", "MqttSettings", "create"]
+__all__ = ["BusyError", "MqttFace", "MqttSettings", "create"]
 
 log = logging.getLogger("robostar.serve.mqtt")
 
@@ -70,7 +71,13 @@ _OPTIONS = frozenset(
         "token",
     )
 )
-_COMMAND_OPTIONS = frozenset(("enabled", "allow", "estop"))
+_COMMAND_OPTIONS = frozenset(("enabled", "allow", "estop", "max_pending", "max_payload"))
+_STOP_NAMES = frozenset((ESTOP, "stop_job"))
+"""Commands that jump every queue at the line: they have their own lane in the face too."""
+INCOMING_QUEUE = 256
+"""aiomqtt's own queue of received messages per connection. Past it the client discards what
+arrives (logged once in a while: QueueFullFilter), so a flood costs bounded memory even before
+the face reads it."""
 
 
 @dataclass(frozen=True)
@@ -91,6 +98,10 @@ class MqttSettings:
     buffer: str = ":memory:"
     buffer_rows: int = 100_000
     commands: frozenset[str] = frozenset()
+    max_pending: int = 16
+    """Commands per line waiting or running in the face (stops count apart); past it: busy."""
+    max_payload: int = 16_384
+    """The largest command payload read (bytes); a bigger one is refused unread."""
     publish_timeout: float = 5.0
     reconnect_max: float = 30.0
     """The longest wait between reconnection attempts (the wait doubles from 0.5 s)."""
@@ -101,6 +112,13 @@ def _number(options: Mapping[str, Any], key: str, default: float, low: float) ->
     if isinstance(value, bool) or not isinstance(value, int | float) or not value >= low:
         raise UsageError(f"mqtt.{key}: {value!r} is not a number of at least {low:g}")
     return float(value)
+
+
+def _count(options: Mapping[str, Any], key: str, default: int, low: int) -> int:
+    value = options.get(key, default)
+    if isinstance(value, bool) or not isinstance(value, int) or value < low:
+        raise UsageError(f"mqtt.commands.{key}: {value!r} is not an integer of at least {low}")
+    return value
 
 
 def settings_from(options: Mapping[str, Any]) -> MqttSettings:
@@ -130,7 +148,9 @@ def settings_from(options: Mapping[str, Any]) -> MqttSettings:
         raise UsageError("mqtt.commands: expected a table (enabled, allow, estop)")
     bad = sorted(set(commands_option) - _COMMAND_OPTIONS)
     if bad:
-        raise UsageError(f"mqtt.commands.{bad[0]}: unknown option (enabled, allow, estop)")
+        raise UsageError(
+            f"mqtt.commands.{bad[0]}: unknown option ({', '.join(sorted(_COMMAND_OPTIONS))})"
+        )
     commands: set[str] = set()
     if commands_option.get("enabled", False) is True:
         allow = commands_option.get("allow", [])
@@ -161,6 +181,8 @@ def settings_from(options: Mapping[str, Any]) -> MqttSettings:
         buffer=str(options.get("buffer", ":memory:")),
         buffer_rows=int(_number(options, "buffer_rows", 100_000, 1)),
         commands=frozenset(commands),
+        max_pending=_count(commands_option, "max_pending", 16, 1),
+        max_payload=_count(commands_option, "max_payload", 16_384, 16),
         publish_timeout=_number(options, "publish_timeout", 5.0, 0.1),
         reconnect_max=_number(options, "reconnect_max", 30.0, 0.1),
     )
@@ -186,8 +208,59 @@ async def _wait_event(event: asyncio.Event, timeout: float | None) -> None:
         waiter.cancel()
 
 
+def _short(text: str, size: int = 80) -> str:
+    """A name from the wire, cut to a size fit for a message or the audit log."""
+    return text if len(text) <= size else f"{text[:size]}..."
+
+
+class QueueFullFilter(logging.Filter):
+    """aiomqtt logs every message it discards from its full queue: a flood would write a line
+    per message. This lets one through per ``every`` seconds, with how many it held back."""
+
+    def __init__(self, every: float = 10.0) -> None:
+        super().__init__()
+        self.every = every
+        self.held = 0
+        self._next = 0.0
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        if not record.getMessage().startswith("Message queue is full"):
+            return True
+        now = time.monotonic()
+        if now < self._next:
+            self.held += 1
+            return False
+        self._next = now + self.every
+        if self.held:
+            record.msg = f"{record.getMessage()} ({self.held:,} more since the last report)"
+            record.args = ()
+            self.held = 0
+        return True
+
+
+client_log = logging.getLogger("robostar.serve.mqtt.client")
+"""The logger of the face's MQTT clients (aiomqtt's messages)."""
+client_log.addFilter(QueueFullFilter())
+
+
+class BusyError(RobostarError):
+    """The face already has as many commands waiting or running for a line as it takes."""
+
+
+@dataclass
+class _Lane:
+    """One line's queue of command messages, run one at a time by a worker task. ``pending``
+    counts those waiting or running; the reader refuses more than ``limit``."""
+
+    limit: int
+    pending: int = 0
+    queue: asyncio.Queue[tuple[aiomqtt.Client, aiomqtt.Message, str]] = field(
+        default_factory=asyncio.Queue
+    )
+
+
 class _LineLink:
-    """One line's connection, buffer and pump."""
+    """One line's connection, buffer, pump and command lanes."""
 
     def __init__(self, face: MqttFace, line: Line) -> None:
         self.face = face
@@ -205,6 +278,11 @@ class _LineLink:
         self.wake = asyncio.Event()
         self.kicked = asyncio.Event()
         """Set when a publish failed: the connection is dropped and made again (then replayed)."""
+        self.lanes = {
+            "commands": _Lane(settings.max_pending),
+            "stops": _Lane(settings.max_pending),
+        }
+        self.workers: list[asyncio.Task[None]] = []
 
     # -- the pump: model changes -> reporter -> broker or buffer -----------------------------
     async def pump(self) -> None:
@@ -303,11 +381,26 @@ class _LineLink:
             backoff = min(backoff * 2, self.face.settings.reconnect_max)
 
     async def _read(self, client: aiomqtt.Client) -> None:
-        """Take command messages until the connection fails (MqttError)."""
+        """Take command messages until the connection fails (MqttError). Nothing here waits on
+        the line: a message goes to its lane, or is refused at once (not enabled, busy)."""
         async for message in client.messages:
-            task = asyncio.create_task(self._command(client, message))
-            self.face.tasks.add(task)
-            task.add_done_callback(self.face.tasks.discard)
+            name = self.face.topics.command_name(str(message.topic), self.line.name)
+            if name is None:
+                continue
+            if name not in self.face.settings.commands:
+                problem = UsageError(f"command {_short(name)!r} is not enabled on this server")
+                await self._refuse(client, message, name, problem)
+                continue
+            lane = self.lanes["stops" if name in _STOP_NAMES else "commands"]
+            if lane.pending >= lane.limit:
+                busy = BusyError(
+                    f"busy: {lane.pending} MQTT commands are waiting or running on line"
+                    f" {self.line.name} (the limit); not run, send it again later"
+                )
+                await self._refuse(client, message, name, busy)
+                continue
+            lane.pending += 1
+            lane.queue.put_nowait((client, message, name))
         raise aiomqtt.MqttError("the broker closed the connection")
 
     async def _replay(self, client: aiomqtt.Client) -> None:
@@ -342,37 +435,122 @@ class _LineLink:
             self.replaying = False
 
     # -- commands ---------------------------------------------------------------------------
-    async def _command(self, client: aiomqtt.Client, message: aiomqtt.Message) -> None:
-        topics = self.face.topics
-        name = topics.command_name(str(message.topic), self.line.name)
-        if name is None:
-            return
-        props = message.properties
-        reply_to = getattr(props, "ResponseTopic", None) or topics.result(self.line.name, name)
-        correlation = getattr(props, "CorrelationData", None)
-        request_id: Any = None
+    async def work(self, lane: _Lane) -> None:
+        """Run ``lane``'s commands one at a time (the line runs one at a time anyway)."""
+        while True:
+            client, message, name = await lane.queue.get()
+            try:
+                await self._command(client, message, name)
+            except Exception:  # a handler never dies silently, nor takes its lane with it
+                _check_cancelled()
+                log.exception("mqtt %s: command %s failed", self.line.name, _short(name))
+            finally:
+                lane.pending -= 1
+
+    def _reply_topic(self, message: aiomqtt.Message, name: str) -> tuple[str, str | None]:
+        """Where the answer goes, and what is wrong with the request's response topic (then
+        the answer goes to the default result topic, and the command is refused)."""
+        default = self.face.topics.result(self.line.name, name)
+        requested = getattr(message.properties, "ResponseTopic", None)
+        if requested is None:
+            return default, None
+        problem = response_topic_problem(str(requested))
+        if problem is not None:
+            return default, f"the response topic {_short(str(requested))!r} {problem}"
+        return str(requested), None
+
+    def _payload(self, message: aiomqtt.Message) -> bytes:
+        raw = message.payload
+        payload = raw if isinstance(raw, bytes) else str(raw if raw is not None else "").encode()
+        limit = self.face.settings.max_payload
+        if len(payload) > limit:
+            raise UsageError(
+                f"bad payload: {len(payload):,} bytes, over the limit of {limit:,} bytes"
+            )
+        return payload
+
+    def _request_id(self, message: aiomqtt.Message) -> Any:
+        """The payload's ``"id"`` for a refusal's answer, when there is one to find."""
         try:
-            raw = message.payload
-            params = read_params(raw if isinstance(raw, bytes) else str(raw).encode())
+            return read_params(self._payload(message)).get("id")
+        except RobostarError:
+            return None
+
+    async def _refuse(
+        self,
+        client: aiomqtt.Client,
+        message: aiomqtt.Message,
+        name: str,
+        problem: RobostarError,
+        command: Command[Any] | None = None,
+        request_id: Any = None,
+    ) -> None:
+        """Audit a refusal of the face's own and answer it. Never raises: the reader calls it,
+        and the reader must live as long as the connection."""
+        try:
+            what = command if command is not None else f"cmd/{_short(name)}"
+            self.line.record(what, self.face.who, f"refused: {problem}")
+        except Exception:  # the audit log's own trouble must not end the connection's reader
+            log.exception("mqtt %s: a refusal was not audited", self.line.name)
+        try:
+            if request_id is None:
+                request_id = self._request_id(message)
+            reply_to, _ = self._reply_topic(message, name)
+            body = {"ok": False, "error": str(problem), "kind": type(problem).__name__}
+        except Exception:
+            log.exception("mqtt %s: a refusal was not answered", self.line.name)
+            return
+        await self._reply(client, message, reply_to, body, request_id)
+
+    async def _command(self, client: aiomqtt.Client, message: aiomqtt.Message, name: str) -> None:
+        reply_to, topic_problem = self._reply_topic(message, name)
+        request_id: Any = None
+        command: Command[Any] | None = None
+        try:
+            params = read_params(self._payload(message))
             request_id = params.get("id")
-            if name not in self.face.settings.commands:
-                raise UsageError(f"command {name!r} is not enabled on this server")
-            command = build_command(name, params)
-            who = Who(self.face.settings.client_id, "mqtt")
-            result = await self.line.execute(command, who=who, implicit_lease=True)
-            body: dict[str, Any] = {"ok": True, "result": jsonable(result)}
+            if topic_problem is not None:
+                raise UsageError(f"{topic_problem}; the command was not run")
+            command = make_command(name, params)
+            command.encode()  # every field's range, as the wire would refuse it
         except RobostarError as exc:
+            await self._refuse(client, message, name, exc, command, request_id)
+            return
+        try:
+            result = await self.line.execute(command, who=self.face.who, implicit_lease=True)
+            body: dict[str, Any] = {"ok": True, "result": jsonable(result)}
+        except RobostarError as exc:  # execute audited it
             body = {"ok": False, "error": str(exc), "kind": type(exc).__name__}
+        except Exception as exc:
+            log.exception("mqtt %s: %r failed", self.line.name, command)
+            body = {"ok": False, "error": f"internal error: {exc!r}", "kind": "InternalError"}
+        await self._reply(client, message, reply_to, body, request_id)
+
+    async def _reply(
+        self,
+        client: aiomqtt.Client,
+        message: aiomqtt.Message,
+        reply_to: str,
+        body: dict[str, Any],
+        request_id: Any,
+    ) -> None:
+        """Publish an answer; a failure is logged, never raised."""
         if request_id is not None:
             body["id"] = request_id
+        correlation = getattr(message.properties, "CorrelationData", None)
         properties = None
         if correlation is not None:
             properties = Properties(PacketTypes.PUBLISH)  # type: ignore[no-untyped-call]
             properties.CorrelationData = correlation
-        with contextlib.suppress(aiomqtt.MqttError, TimeoutError):
+        try:
             await client.publish(
                 reply_to, json.dumps(body).encode(), qos=1, properties=properties, timeout=5.0
             )
+        except (aiomqtt.MqttError, TimeoutError) as exc:
+            _check_cancelled()
+            log.warning("mqtt %s: no answer sent to %s (%s)", self.line.name, reply_to, exc)
+        except Exception:
+            log.exception("mqtt %s: no answer sent to %s", self.line.name, reply_to)
 
 
 class MqttFace:
@@ -385,6 +563,8 @@ class MqttFace:
         self.links: dict[str, _LineLink] = {}
         self.tasks: set[asyncio.Task[Any]] = set()
         self.presence: aiomqtt.Client | None = None
+        self.who = Who(settings.client_id, "mqtt")
+        """The name commands run and are audited under (MQTT does not say who sent one)."""
 
     def client(self, identifier: str, will_topic: str) -> aiomqtt.Client:
         s = self.settings
@@ -404,6 +584,8 @@ class MqttFace:
             tls_context=context,
             keepalive=10,
             timeout=s.publish_timeout,
+            max_queued_incoming_messages=INCOMING_QUEUE,
+            logger=client_log,
         )
 
     async def start(self) -> None:
@@ -412,6 +594,11 @@ class MqttFace:
             for job in (link.pump(), link.connect_loop()):
                 task = asyncio.create_task(job)
                 self.tasks.add(task)
+            if self.settings.commands:
+                for lane in link.lanes.values():
+                    worker = asyncio.create_task(link.work(lane))
+                    link.workers.append(worker)
+                    self.tasks.add(worker)
         self.tasks.add(asyncio.create_task(self._server_presence()))
         log.info(
             "mqtt face: %d line(s) to %s:%d",

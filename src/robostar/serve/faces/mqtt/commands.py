@@ -20,7 +20,7 @@ from robostar.commands.job import Servo
 from robostar.commands.variables import WriteGlobalFloat, WriteGlobalInt
 from robostar.errors import UsageError
 
-__all__ = ["COMMANDS", "ESTOP", "build_command", "read_params"]
+__all__ = ["COMMANDS", "ESTOP", "build_command", "make_command", "read_params"]
 
 ESTOP = "estop"
 
@@ -60,21 +60,29 @@ COMMANDS: dict[str, Callable[[Mapping[str, Any]], Command[Any]]] = {
 
 
 def read_params(payload: bytes) -> dict[str, Any]:
-    """The message's JSON object (UsageError when it is not one)."""
+    """The message's JSON object; UsageError ("bad payload: ...") for anything else, whatever
+    the bytes are (nesting too deep for the parser included). The caller caps the size."""
     try:
         params = json.loads(payload or b"{}")
     except (ValueError, UnicodeDecodeError) as exc:
-        raise UsageError(f"the payload is not JSON: {exc}") from None
+        raise UsageError(f"bad payload: not JSON ({exc})") from None
+    except RecursionError:
+        raise UsageError("bad payload: JSON nested too deeply") from None
     if not isinstance(params, dict):
-        raise UsageError("the payload must be a JSON object")
+        raise UsageError("bad payload: not a JSON object")
     return params
+
+
+def make_command(name: str, params: Mapping[str, Any]) -> Command[Any]:
+    """The command, its parameters' types checked (UsageError), their ranges not yet."""
+    make = COMMANDS.get(name)
+    if make is None:
+        raise UsageError(f"unknown command {name!r} (commands: {', '.join(COMMANDS)})")
+    return make(params)
 
 
 def build_command(name: str, params: Mapping[str, Any]) -> Command[Any]:
     """The command; UsageError (or FieldError) naming what is wrong, before anything is sent."""
-    make = COMMANDS.get(name)
-    if make is None:
-        raise UsageError(f"unknown command {name!r} (commands: {', '.join(COMMANDS)})")
-    command = make(params)
+    command = make_command(name, params)
     command.encode()  # every field's range, as the wire would refuse it
     return command

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 from robostar.errors import UsageError
 
-__all__ = ["SERVER", "Topics", "check_prefix"]
+__all__ = ["SERVER", "Topics", "check_prefix", "response_topic_problem"]
 
 SERVER = "_server"
 """The tree of the server itself (its online state, the buffer's figures)."""
@@ -23,6 +23,30 @@ def check_prefix(prefix: str) -> str:
     if not text or any(c in text for c in "+#\x00"):
         raise UsageError(f"mqtt.prefix: {prefix!r} is not a topic prefix (no +, # or NUL)")
     return text
+
+
+MAX_TOPIC_BYTES = 65_535
+"""MQTT's limit on a topic name (UTF-8)."""
+
+
+def response_topic_problem(topic: str) -> str | None:
+    """Why ``topic`` (a request's MQTT 5 response topic) cannot take the reply, or None. The
+    broker would drop a reply to a ``$`` topic, and a publish cannot go to a filter."""
+    if not topic:
+        return "empty"
+    if "+" in topic or "#" in topic:
+        return "has a wildcard (+ or #)"
+    if "\x00" in topic:
+        return "has a NUL"
+    if topic.startswith("$"):
+        return "starts with $ (the broker's own topics)"
+    try:
+        size = len(topic.encode("utf-8"))
+    except UnicodeEncodeError:
+        return "is not UTF-8"
+    if size > MAX_TOPIC_BYTES:
+        return f"is longer than {MAX_TOPIC_BYTES:,} bytes"
+    return None
 
 
 @dataclass(frozen=True)
