@@ -1,14 +1,16 @@
 """The dashboard against what a review found: DNS rebinding, sessions outliving a sign-out or a
 user, bodies read before the guards, refusals missing from the audit log, sign-ins from one
-address under many names, non-ASCII tokens."""
+address under many names, a backup that failed on a two-channel controller, non-ASCII tokens."""
 
 from __future__ import annotations
 
 import asyncio
+import io
 import json
 import socket
 import threading
 import time
+import zipfile
 from collections.abc import AsyncIterator, Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -18,7 +20,9 @@ import httpx
 import pytest
 from web_harness import PASSWORDS, Stack, csrf_of, login
 
+from robostar.serve.config import LineConfig, ServeConfig
 from robostar.serve.faces.web import WebFace
+from robostar.serve.server import LineServer
 from robostar.serve.users import Role, UserStore
 
 SPEED = {"action": "speed", "channel": 1, "speed": 321, "confirmed": True}
@@ -249,6 +253,28 @@ def test_password_checks_run_two_at_a_time(stack: Stack) -> None:
         texts = asyncio.run(many())
         assert all("Wrong name" in t or "Too many" in t for t in texts)
         assert 1 <= running[1] <= 2, running
+
+
+# -- 7: the backup of a two-channel controller -------------------------------------------------
+def test_the_backup_of_a_two_channel_controller(stack: Stack) -> None:
+    config = ServeConfig(
+        lines=(LineConfig("cell2", "sim://?channels=2", poll_interval=0.05),), faces={}
+    )
+    server = LineServer(config)
+    stack.call(server.start())
+    try:
+        stack.call(server.lines["cell2"].wait_polled())
+        with (
+            own_face(stack, {}, server) as face,
+            httpx.Client(base_url=face.url, timeout=30) as http,
+        ):
+            answer = http.get("/line/cell2/backup.zip")
+            assert answer.status_code == 200, answer.text
+            names = zipfile.ZipFile(io.BytesIO(answer.content)).namelist()
+            assert not any(n.startswith("ch3/") for n in names), names
+            assert "channel 3" not in http.get("/").text
+    finally:
+        stack.call(server.stop())
 
 
 # -- 8: non-ASCII tokens -----------------------------------------------------------------------

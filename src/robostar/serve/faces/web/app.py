@@ -630,9 +630,10 @@ async def _json_body(request: Request) -> dict[str, Any]:
 
 
 def _channels(line: Line) -> list[int]:
-    info = line.model.get("info")
-    if info is not None and getattr(info.value, "channels", None):
-        return [c.channel for c in info.value.channels]
+    """The channels to show and back up: the configured ones, else those the controller has
+    (a channel AD reports NOT_DEFINED, with no axes, is none); all three until AD answered."""
+    if line.config.channels or line.info is not None:
+        return list(line.channels())
     return [1, 2, 3]
 
 
