@@ -18,7 +18,7 @@ What a web page must not do (a browser sends cross-site requests with the user's
 a POST or DELETE needs ``Content-Type: application/json`` (415 otherwise: a page's form or
 ``text/plain`` fetch cannot send it without a CORS preflight, which this API never grants), a
 request whose ``Origin`` is not this API's own (``http://`` + its Host) is refused (403), and the
-``Host`` header must name this server (400; see :mod:`robostar.serve.faces.http_guard`), which
+``Host`` header must name this server (400; see :mod:`robostar.serve.http_guard`), which
 stops DNS rebinding. Bodies are at most ``max_body`` bytes (413). A lease's ``ttl`` is a finite
 number of seconds, more than 0 and at most :data:`MAX_LEASE_TTL` (or the configured lease_ttl
 when longer).
@@ -43,7 +43,7 @@ from starlette.routing import Route
 from robostar.commands.base import Command
 from robostar.commands.registry import all_commands, decode_request
 from robostar.errors import ControllerError, RobostarError, UsageError
-from robostar.serve.faces.http_guard import (
+from robostar.serve.http_guard import (
     DEFAULT_MAX_BODY,
     BodyLimit,
     BodyTooLarge,

@@ -59,8 +59,8 @@ class WebFace:
         unknown = set(options) - _KNOWN
         if unknown:
             raise UsageError(f"web: unknown option(s) {', '.join(sorted(unknown))}")
-        from robostar.serve.faces.http_guard import hosts_option, max_body_option
         from robostar.serve.faces.web.app import WebSettings, build_app
+        from robostar.serve.http_guard import hosts_option, max_body_option
         from robostar.serve.users import UserStore
 
         self.host, self.port = _listen(str(options.get("listen", DEFAULT_LISTEN)))

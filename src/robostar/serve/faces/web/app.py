@@ -46,13 +46,6 @@ from robostar.commands.io import SetOutput
 from robostar.commands.job import Servo
 from robostar.errors import RobostarError, UsageError
 from robostar.protocol.fields import FileName
-from robostar.serve.faces.http_guard import (
-    DEFAULT_MAX_BODY,
-    BodyLimit,
-    HostGuard,
-    HostRule,
-    same_secret,
-)
 from robostar.serve.faces.web.auth import (
     CSRF_FIELD,
     SESSION_LIFETIME,
@@ -66,6 +59,13 @@ from robostar.serve.faces.web.auth import (
 from robostar.serve.faces.web.jog import JogSession
 from robostar.serve.faces.web.variables import KINDS, PAGE_MAX, build_write, page_range, read_rows
 from robostar.serve.faces.web.views import axis_unit, change_json, sample_json
+from robostar.serve.http_guard import (
+    DEFAULT_MAX_BODY,
+    BodyLimit,
+    HostGuard,
+    HostRule,
+    same_secret,
+)
 from robostar.serve.jsonable import jsonable
 from robostar.serve.lease import Who
 from robostar.serve.line import Line

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 from starlette.datastructures import FormData
 from starlette.requests import HTTPConnection, Request
 
-from robostar.serve.faces.http_guard import same_secret
+from robostar.serve.http_guard import same_secret
 from robostar.serve.users import LoginLimiter, Role, User, UserStore
 
 __all__ = [
