@@ -179,3 +179,23 @@ def test_bad_numbers_and_non_ascii_headers_are_400_or_401_not_500() -> None:
             assert answer.status_code == 400 and "maxsize" in answer.text, maxsize
 
     _run(test, api={"token": "s3cret-token"})
+
+
+def test_which_host_headers_a_listen_address_answers() -> None:
+    from robostar.serve.http_guard import HostRule, host_of
+
+    assert host_of("Example.COM:8080") == "example.com"
+    assert host_of("[::1]:8470") == "::1"
+    for bad in (None, "", "::1", "a:b", "[::1", "[::1]x", "evil.example/x"):
+        assert host_of(bad) is None, bad
+    loopback = HostRule("127.0.0.1")
+    assert all(loopback.allows(h) for h in ("127.0.0.1:1", "localhost", "[::1]:2", "localhost."))
+    assert not any(loopback.allows(h) for h in ("10.0.0.1", "evil.example", "127.0.0.1.nip.io"))
+    wildcard = HostRule("0.0.0.0", ["cell7.plant.example"])
+    assert wildcard.allows("192.0.2.7:8470") and wildcard.allows("cell7.plant.example")
+    assert not wildcard.allows("evil.example")
+    one = HostRule("192.0.2.7")
+    assert (
+        one.allows("192.0.2.7:8470") and not one.allows("192.0.2.8") and not one.allows("localhost")
+    )
+    assert HostRule("127.0.0.1", ["*"]).allows("anything.example")

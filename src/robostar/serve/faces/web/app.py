@@ -20,7 +20,7 @@ import zipfile
 from collections.abc import AsyncIterator, Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 from starlette.applications import Starlette
 from starlette.middleware import Middleware
@@ -152,7 +152,7 @@ def build_app(server: LineServer, settings: WebSettings) -> Starlette:
             },
         )
 
-    def refuse(line: Line | None, account: Account, what: str, status: int, why: str) -> None:
+    def refuse(line: Line | None, account: Account, what: str, status: int, why: str) -> NoReturn:
         """Refuse a request (_Forbidden), in the line's audit log when it names a line."""
         if line is not None:
             line.record(what, Who(account.name, "web"), f"refused: {why}")
@@ -430,7 +430,7 @@ def build_app(server: LineServer, settings: WebSettings) -> Starlette:
             for which, key in keys:
                 which.failed(key)
             return page(request, "login.html", error="Wrong name or password.")
-        limiter.succeeded(keys[0][1])  # the address's count stays: a success resets no one else
+        limiter.succeeded(keys[0][1])  # this name's count only: the address's stays
         sessions.close(request.session.get("sid"))
         request.session.clear()
         request.session["user"] = user.name
