@@ -122,6 +122,24 @@ def test_a_removed_user_or_a_lowered_role_counts_from_the_next_request(
     assert stack.line.lease.holder is None
 
 
+def test_a_jog_socket_ends_when_its_session_does(stack: Stack) -> None:
+    from websockets.exceptions import ConnectionClosed
+    from websockets.sync.client import connect
+
+    with httpx.Client(base_url=stack.url, timeout=10) as http:
+        token = login(http, "olga")
+        cookie = "; ".join(f"{k}={v}" for k, v in http.cookies.items())
+        url = stack.url.replace("http://", "ws://") + f"/line/cell1/jog/ws?csrf={token}"
+        with connect(url, additional_headers={"Origin": stack.url, "Cookie": cookie}) as socket:
+            http.post("/logout", data={"csrf_token": token})
+            socket.send(json.dumps({"type": "start", "channel": 1, "axis": 1, "direction": "+"}))
+            answer = json.loads(socket.recv(timeout=10))
+            assert answer["type"] == "error" and "sign in" in answer["error"], answer
+            with pytest.raises(ConnectionClosed):
+                socket.recv(timeout=10)
+    assert stack.line.lease.holder is None
+
+
 # -- 3: bodies ---------------------------------------------------------------------------------
 def test_an_anonymous_body_is_not_read(stack: Stack, client: httpx.Client) -> None:
     token = csrf_of(client.get("/").text)

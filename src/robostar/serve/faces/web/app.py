@@ -791,7 +791,11 @@ async def _jog_socket(
         await websocket.close(code=4403)
         return
     await websocket.accept()
-    session = JogSession(line, Who(account.name, "web"))
+
+    def still_operator() -> bool:  # a sign-out, a removed user or a lowered role ends the jog
+        return account_of(websocket, users, sessions).may(Role.OPERATOR)
+
+    session = JogSession(line, Who(account.name, "web"), still_operator)
     try:
         await session.run(websocket)
     except WebSocketDisconnect:
