@@ -199,3 +199,26 @@ def test_which_host_headers_a_listen_address_answers() -> None:
         one.allows("192.0.2.7:8470") and not one.allows("192.0.2.8") and not one.allows("localhost")
     )
     assert HostRule("127.0.0.1", ["*"]).allows("anything.example")
+
+
+def test_refusals_are_recorded_at_a_capped_rate_and_the_skipped_counted() -> None:
+    from robostar.serve.http_guard import Refusals
+    from robostar.serve.lease import Who
+
+    class Line:
+        def __init__(self) -> None:
+            self.entries: list[tuple[str, str]] = []
+
+        def record(self, what: str, who: Who, outcome: str) -> None:
+            self.entries.append((what, outcome))
+
+    now = [0.0]
+    refusals = Refusals(rate=10, burst=5, clock=lambda: now[0])
+    line = Line()
+    for _ in range(1000):  # a page's loop of cross-site requests
+        refusals.record(line, "POST /x", Who("anonymous", "web"), "no role")  # type: ignore[arg-type]
+    assert len(line.entries) == 5 and refusals.skipped == 995
+    now[0] = 1.0
+    refusals.record(line, "POST /x", Who("anonymous", "web"), "no role")  # type: ignore[arg-type]
+    assert "995 refusals before this one not recorded" in line.entries[-1][1]
+    assert refusals.skipped == 0

@@ -6,7 +6,9 @@
   ``Content-Length`` before any of it is read, and by counting what ``receive()`` hands over
   for a body without one (chunked), so no handler ever holds more than the limit;
 - :func:`same_secret`: a constant-time comparison of two header or form values that never raises
-  (a non-ASCII header is just a wrong one).
+  (a non-ASCII header is just a wrong one);
+- :class:`Refusals`: a face's refusals into the line's audit log, rate-capped (a page sending
+  cross-site requests in a loop must not fill the disk), what it skipped counted.
 
 Which hosts are allowed (:class:`HostRule`): the listen address; for a loopback address also
 ``localhost``, ``127.0.0.1`` and ``::1``; for a wildcard address (``0.0.0.0``, ``::``) also any
@@ -19,14 +21,20 @@ from __future__ import annotations
 import hmac
 import ipaddress
 import socket
+import time
 from collections.abc import Callable, Iterable
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from starlette.exceptions import HTTPException
 from starlette.responses import Response
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from robostar.errors import UsageError
+from robostar.serve.ratelimit import TokenBucket
+
+if TYPE_CHECKING:
+    from robostar.serve.lease import Who
+    from robostar.serve.line import Line
 
 __all__ = [
     "DEFAULT_MAX_BODY",
@@ -34,6 +42,7 @@ __all__ = [
     "BodyTooLarge",
     "HostGuard",
     "HostRule",
+    "Refusals",
     "host_of",
     "hosts_option",
     "max_body_option",
@@ -218,3 +227,28 @@ def same_secret(given: str | None, expected: str) -> bool:
     return hmac.compare_digest(
         given.encode("utf-8", "surrogatepass"), expected.encode("utf-8", "surrogatepass")
     )
+
+
+class Refusals:
+    """Records a face's refusals with ``line.record``, at most ``rate`` a second (``burst`` at
+    once); the next entry after a gap says how many were not recorded."""
+
+    def __init__(
+        self,
+        rate: float = 10.0,
+        burst: float = 100.0,
+        *,
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
+        self._bucket = TokenBucket(rate, burst, clock=clock)
+        self.skipped = 0
+
+    def record(self, line: Line, what: str, who: Who, why: str) -> None:
+        if not self._bucket.take():
+            self.skipped += 1
+            return
+        outcome = f"refused: {why}"
+        if self.skipped:
+            outcome += f" ({self.skipped} refusals before this one not recorded: too many)"
+            self.skipped = 0
+        line.record(what, who, outcome)

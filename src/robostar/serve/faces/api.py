@@ -49,6 +49,7 @@ from robostar.serve.http_guard import (
     BodyTooLarge,
     HostGuard,
     HostRule,
+    Refusals,
     hosts_option,
     max_body_option,
     same_secret,
@@ -159,6 +160,7 @@ def build_app(
     """The Starlette application of the API (also what tests drive with a TestClient: its
     ``testserver`` host must then be in ``hosts``)."""
     api = _Api(server, token)
+    refusals = Refusals()
 
     def cross_site(request: Request, line: Line | None) -> Response | None:
         reason = api.cross_site(request)
@@ -166,9 +168,7 @@ def build_app(
             return None
         status, kind = (403, "origin") if "origin" in reason else (415, "content type")
         if line is not None:
-            line.record(
-                f"{request.method} {request.url.path}", api.who(request), f"refused: {reason}"
-            )
+            refusals.record(line, f"{request.method} {request.url.path}", api.who(request), reason)
         return _error(status, reason, kind)
 
     async def guard(request: Request) -> Response | tuple[_Api, Line]:

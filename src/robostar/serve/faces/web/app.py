@@ -64,6 +64,7 @@ from robostar.serve.http_guard import (
     BodyLimit,
     HostGuard,
     HostRule,
+    Refusals,
     same_secret,
 )
 from robostar.serve.jsonable import jsonable
@@ -131,6 +132,7 @@ def build_app(server: LineServer, settings: WebSettings) -> Starlette:
     waiting = 0
     users = settings.users
     sessions = Sessions()
+    refusals = Refusals()
 
     def line_of(request: Request | WebSocket) -> Line:
         name = request.path_params["line"]
@@ -155,7 +157,7 @@ def build_app(server: LineServer, settings: WebSettings) -> Starlette:
     def refuse(line: Line | None, account: Account, what: str, status: int, why: str) -> NoReturn:
         """Refuse a request (_Forbidden), in the line's audit log when it names a line."""
         if line is not None:
-            line.record(what, Who(account.name, "web"), f"refused: {why}")
+            refusals.record(line, what, Who(account.name, "web"), why)
         raise _Forbidden(status, why)
 
     async def guard(request: Request, role: Role, line: Line | None, what: str) -> Account:
@@ -461,7 +463,7 @@ def build_app(server: LineServer, settings: WebSettings) -> Starlette:
         return JSONResponse({"line": line.name, "values": values})
 
     async def jog_socket(websocket: WebSocket) -> None:
-        await _jog_socket(websocket, server, users, sessions)
+        await _jog_socket(websocket, server, users, sessions, refusals)
 
     routes = [
         Route("/", overview),
@@ -768,7 +770,11 @@ async def _event_stream(request: Request, lines: list[Line]) -> AsyncIterator[st
 
 
 async def _jog_socket(
-    websocket: WebSocket, server: LineServer, users: UserStore, sessions: Sessions
+    websocket: WebSocket,
+    server: LineServer,
+    users: UserStore,
+    sessions: Sessions,
+    refusals: Refusals,
 ) -> None:
     """The jog panel's socket: only an operator, with the page's CSRF token, from this origin."""
     name = websocket.path_params["line"]
@@ -787,7 +793,7 @@ async def _jog_socket(
         why = _needs(Role.OPERATOR)
     if line is None or why is not None:
         if line is not None and why is not None:
-            line.record("jog", Who(account.name, "web"), f"refused: {why}")
+            refusals.record(line, "jog", Who(account.name, "web"), why)
         await websocket.close(code=4403)
         return
     await websocket.accept()
