@@ -229,7 +229,9 @@ def test_sign_ins_are_limited_per_address_whatever_the_names(stack: Stack) -> No
         token = csrf_of(http.get("/login").text)
         texts = [
             http.post(
-                "/login", data={"csrf_token": token, "username": f"u{i}", "password": "nope-nope"}
+                "/login",
+                data={"csrf_token": token, "username": f"u{i}", "password": "nope-nope"},
+                headers={"X-Forwarded-For": f"192.0.2.{i}"},  # not a proxy: not believed
             ).text
             for i in range(25)
         ]

@@ -68,6 +68,7 @@ class WebFace:
         if (tls[0] is None) != (tls[1] is None):
             raise UsageError("web: give both tls_cert and tls_key, or neither")
         self._tls = tls if tls[0] is not None else None
+        self._behind_proxy = bool(options.get("behind_proxy"))
         if not _is_loopback(self.host):
             if not options.get("allow_remote"):
                 raise UsageError(
@@ -120,6 +121,9 @@ class WebFace:
             ssl_certfile=self._tls[0] if self._tls else None,
             ssl_keyfile=self._tls[1] if self._tls else None,
             ws="auto",
+            # X-Forwarded-For names the client only behind a proxy (from 127.0.0.1); otherwise a
+            # local client could pick its address for the sign-in limits with that header
+            proxy_headers=self._behind_proxy,
             timeout_graceful_shutdown=2,
         )
         self._server = uvicorn.Server(config)
