@@ -397,7 +397,14 @@ class ApiFace:
         import uvicorn
 
         host, port = self.listen
-        config = uvicorn.Config(self.app, host=host, port=port, log_level="warning", lifespan="off")
+        config = uvicorn.Config(
+            self.app,
+            host=host,
+            port=port,
+            log_level="warning",
+            lifespan="off",
+            proxy_headers=False,  # no proxy in front: the peer's address is the client's
+        )
         self._uvicorn = uvicorn.Server(config)
         self._uvicorn.install_signal_handlers = lambda: None  # the CLI owns the signals
         self._task = asyncio.create_task(self._uvicorn.serve())
