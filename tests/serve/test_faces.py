@@ -69,6 +69,8 @@ def test_serve_url_reaches_a_line_through_the_api() -> None:
 
 def _call(url: str, body: dict[str, Any] | None = None, method: str = "GET", **headers: str) -> Any:
     data = None if body is None else json.dumps(body).encode()
+    if method != "GET":  # the API takes state changes as JSON only (a web page cannot send it)
+        headers = {"Content-Type": "application/json", **headers}
     request = urllib.request.Request(url, data=data, method=method, headers=headers)
     try:
         with urllib.request.urlopen(request, timeout=5) as reply:

@@ -13,19 +13,29 @@ Routes (``{line}`` is a line name)::
 
 The consumer names itself in the ``X-Robostar-Who`` header. A token, when configured (required
 off loopback), goes in ``Authorization: Bearer TOKEN``.
+
+What a web page must not do (a browser sends cross-site requests with the user's network access):
+a POST or DELETE needs ``Content-Type: application/json`` (415 otherwise: a page's form or
+``text/plain`` fetch cannot send it without a CORS preflight, which this API never grants), a
+request whose ``Origin`` is not this API's own (``http://`` + its Host) is refused (403), and the
+``Host`` header must name this server (400; see :mod:`robostar.serve.http_guard`), which
+stops DNS rebinding. Bodies are at most ``max_body`` bytes (413). A lease's ``ttl`` is a finite
+number of seconds, more than 0 and at most :data:`MAX_LEASE_TTL` (or the configured lease_ttl
+when longer).
 """
 
 from __future__ import annotations
 
 import asyncio
 import contextlib
-import hmac
 import json
 import logging
+import math
 from collections.abc import AsyncIterator, Mapping
 from typing import TYPE_CHECKING, Any
 
 from starlette.applications import Starlette
+from starlette.middleware import Middleware
 from starlette.requests import Request
 from starlette.responses import JSONResponse, Response, StreamingResponse
 from starlette.routing import Route
@@ -33,6 +43,17 @@ from starlette.routing import Route
 from robostar.commands.base import Command
 from robostar.commands.registry import all_commands, decode_request
 from robostar.errors import ControllerError, RobostarError, UsageError
+from robostar.serve.http_guard import (
+    DEFAULT_MAX_BODY,
+    BodyLimit,
+    BodyTooLarge,
+    HostGuard,
+    HostRule,
+    Refusals,
+    hosts_option,
+    max_body_option,
+    same_secret,
+)
 from robostar.serve.jsonable import jsonable, sample_json
 from robostar.serve.lease import LeaseHeldError, Who
 from robostar.serve.line import Line, LineDownError
@@ -47,6 +68,11 @@ __all__ = ["ApiFace", "build_app", "create"]
 
 log = logging.getLogger("robostar.serve.api")
 _BY_NAME: dict[str, type[Command[Any]]] = {cls.__name__: cls for cls in all_commands()}
+MAX_LEASE_TTL = 3600.0
+"""The longest lease a consumer may ask for (``?ttl=``; the configured lease_ttl if longer)."""
+MAX_EVENTS_QUEUE = 10_000
+"""The largest ``?maxsize=`` of an event stream's queue."""
+_SAFE_METHODS = frozenset(("GET", "HEAD", "OPTIONS"))
 
 
 def _error(status: int, message: str, kind: str) -> JSONResponse:
@@ -62,8 +88,23 @@ class _Api:
     def authorised(self, request: Request) -> bool:
         if self.token is None:
             return True
-        given = request.headers.get("authorization", "")
-        return hmac.compare_digest(given, f"Bearer {self.token}")
+        return same_secret(request.headers.get("authorization", ""), f"Bearer {self.token}")
+
+    @staticmethod
+    def cross_site(request: Request) -> str | None:
+        """Why a request looks like a web page's (a foreign Origin, a state change not sent as
+        JSON), or None."""
+        origin = request.headers.get("origin")
+        if origin is not None:
+            scheme, sep, rest = origin.partition("://")
+            host = request.headers.get("host", "")
+            if not sep or scheme.lower() != "http" or rest.lower() != host.lower():
+                return f"a request from another origin ({origin[:100]!r}) is refused"
+        if request.method not in _SAFE_METHODS:
+            media = request.headers.get("content-type", "").split(";", 1)[0].strip().lower()
+            if media != "application/json":
+                return "a POST or DELETE needs 'Content-Type: application/json'"
+        return None
 
     def line(self, request: Request) -> Line | None:
         return self.server.lines.get(request.path_params["line"])
@@ -108,9 +149,27 @@ class _Api:
         }
 
 
-def build_app(server: LineServer, token: str | None = None) -> Starlette:
-    """The Starlette application of the API (also what tests drive with a TestClient)."""
+def build_app(
+    server: LineServer,
+    token: str | None = None,
+    *,
+    listen_host: str = "127.0.0.1",
+    hosts: tuple[str, ...] = (),
+    max_body: int = DEFAULT_MAX_BODY,
+) -> Starlette:
+    """The Starlette application of the API (also what tests drive with a TestClient: its
+    ``testserver`` host must then be in ``hosts``)."""
     api = _Api(server, token)
+    refusals = Refusals()
+
+    def cross_site(request: Request, line: Line | None) -> Response | None:
+        reason = api.cross_site(request)
+        if reason is None:
+            return None
+        status, kind = (403, "origin") if "origin" in reason else (415, "content type")
+        if line is not None:
+            refusals.record(line, f"{request.method} {request.url.path}", api.who(request), reason)
+        return _error(status, reason, kind)
 
     async def guard(request: Request) -> Response | tuple[_Api, Line]:
         if not api.authorised(request):
@@ -119,11 +178,17 @@ def build_app(server: LineServer, token: str | None = None) -> Starlette:
         if line is None:
             names = ", ".join(server.lines)
             return _error(404, f"no line {request.path_params['line']!r} ({names})", "line")
+        refusal = cross_site(request, line)
+        if refusal is not None:
+            return refusal
         return api, line
 
     async def lines(request: Request) -> Response:
         if not api.authorised(request):
             return _error(401, "a valid 'Authorization: Bearer TOKEN' header is required", "auth")
+        refusal = cross_site(request, None)
+        if refusal is not None:
+            return refusal
         return JSONResponse([api.line_json(line) for line in server.lines.values()])
 
     async def model(request: Request) -> Response:
@@ -151,7 +216,11 @@ def build_app(server: LineServer, token: str | None = None) -> Starlette:
         if isinstance(got, Response):
             return got
         _, line = got
-        sub = line.model.subscribe(maxsize=int(request.query_params.get("maxsize", "1000")))
+        maxsize = request.query_params.get("maxsize", "1000")
+        if not maxsize.strip().isdigit() or not 1 <= int(maxsize) <= MAX_EVENTS_QUEUE:
+            message = f"maxsize: a whole number 1-{MAX_EVENTS_QUEUE}, not {maxsize[:40]!r}"
+            return _error(400, message, "usage")
+        sub = line.model.subscribe(maxsize=int(maxsize))
 
         async def stream() -> AsyncIterator[str]:
             try:
@@ -179,6 +248,7 @@ def build_app(server: LineServer, token: str | None = None) -> Starlette:
         try:
             body = await request.json()
             command = _command_from(body)
+            max_age = _max_age(body.get("max_age"))
         except (ValueError, TypeError, RobostarError) as exc:
             return _error(400, str(exc), "usage")
         who = api.who(request)
@@ -187,7 +257,6 @@ def build_app(server: LineServer, token: str | None = None) -> Starlette:
             if command.CHANGES_STATE:
                 result = await line.execute(command, who=who, implicit_lease=implicit)
             else:
-                max_age = body.get("max_age")
                 result = await line.read(command, max_age=max_age)
         except LeaseHeldError as exc:
             return _error(409, str(exc), "lease")
@@ -210,12 +279,20 @@ def build_app(server: LineServer, token: str | None = None) -> Starlette:
         if request.method == "DELETE":
             return JSONResponse({"released": line.lease.release(who)})
         ttl = request.query_params.get("ttl")
+        longest = max(MAX_LEASE_TTL, line.lease.ttl)
+        seconds: float | None = None
+        if ttl:
+            try:
+                seconds = float(ttl)
+            except ValueError:
+                seconds = math.nan
+            if not math.isfinite(seconds) or not 0 < seconds <= longest:
+                message = f"ttl: {ttl[:40]!r} is not a number of seconds > 0 and <= {longest:g}"
+                return _error(400, message, "usage")
         try:
-            info = line.lease.acquire(who, float(ttl) if ttl else None)
+            info = line.lease.acquire(who, seconds)
         except LeaseHeldError as exc:
             return _error(409, str(exc), "lease")
-        except ValueError:
-            return _error(400, f"ttl: {ttl!r} is not a number of seconds", "usage")
         return JSONResponse({"who": who.name, "since": info.since, "expires_at": info.expires_at})
 
     async def n1(request: Request) -> Response:
@@ -234,6 +311,9 @@ def build_app(server: LineServer, token: str | None = None) -> Starlette:
             address = api.n1_address(line.name)
         return JSONResponse({"line": line.name, "n1": address})
 
+    async def too_large(request: Request, exc: Exception) -> Response:
+        return _error(413, str(getattr(exc, "detail", exc)), "size")
+
     app = Starlette(
         routes=[
             Route("/lines", lines),
@@ -243,10 +323,30 @@ def build_app(server: LineServer, token: str | None = None) -> Starlette:
             Route("/lines/{line}/commands", commands, methods=["POST"]),
             Route("/lines/{line}/lease", lease, methods=["POST", "DELETE"]),
             Route("/lines/{line}/n1", n1),
-        ]
+        ],
+        middleware=[
+            Middleware(HostGuard, rule=HostRule(listen_host, hosts), respond=_guard_error),
+            Middleware(BodyLimit, limit=max_body, respond=_guard_error),
+        ],
+        exception_handlers={BodyTooLarge: too_large},
     )
     app.state.api = api
     return app
+
+
+def _guard_error(status: int, message: str) -> Response:
+    return _error(status, message, "size" if status == 413 else "request")
+
+
+def _max_age(value: Any) -> float | None:
+    """A read's ``max_age``: None, or a finite number of seconds, 0 or more."""
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        raise UsageError(f"max_age: a number of seconds (0 or more) or null, not {value!r}")
+    if value < 0:
+        raise UsageError(f"max_age: {value!r} is negative")
+    return float(value)
 
 
 def _sse(key: str, data: dict[str, Any]) -> str:
@@ -274,14 +374,21 @@ class ApiFace:
     """Runs the API under uvicorn, inside the server's event loop."""
 
     def __init__(
-        self, server: LineServer, listen: tuple[str, int], allow_remote: bool, token: str | None
+        self,
+        server: LineServer,
+        listen: tuple[str, int],
+        allow_remote: bool,
+        token: str | None,
+        *,
+        hosts: tuple[str, ...] = (),
+        max_body: int = DEFAULT_MAX_BODY,
     ) -> None:
         host = listen[0]
         if not is_loopback(host) and not token:
             raise UsageError("api: binding beyond loopback needs a token")
         check_host(host, allow_remote)
         self.listen = listen
-        self.app = build_app(server, token)
+        self.app = build_app(server, token, listen_host=host, hosts=hosts, max_body=max_body)
         self.address: tuple[str, int] | None = None
         self._uvicorn: Any = None
         self._task: asyncio.Task[None] | None = None
@@ -290,7 +397,14 @@ class ApiFace:
         import uvicorn
 
         host, port = self.listen
-        config = uvicorn.Config(self.app, host=host, port=port, log_level="warning", lifespan="off")
+        config = uvicorn.Config(
+            self.app,
+            host=host,
+            port=port,
+            log_level="warning",
+            lifespan="off",
+            proxy_headers=False,  # no proxy in front: the peer's address is the client's
+        )
         self._uvicorn = uvicorn.Server(config)
         self._uvicorn.install_signal_handlers = lambda: None  # the CLI owns the signals
         self._task = asyncio.create_task(self._uvicorn.serve())
@@ -319,7 +433,8 @@ class ApiFace:
 
 
 def create(server: LineServer, options: Mapping[str, Any]) -> ApiFace:
-    """``options``: ``{"listen": "HOST:PORT", "allow_remote": bool, "token": str}``."""
+    """``options``: ``{"listen": "HOST:PORT", "allow_remote": bool, "token": str, "hosts": [names
+    besides the listen address], "max_body": bytes}``."""
     listen = options.get("listen")
     if not isinstance(listen, str):
         raise UsageError('api.listen: expected "HOST:PORT"')
@@ -329,4 +444,6 @@ def create(server: LineServer, options: Mapping[str, Any]) -> ApiFace:
         parse_listen(listen),
         bool(options.get("allow_remote", False)),
         str(token) if token else None,
+        hosts=hosts_option(options.get("hosts"), "api"),
+        max_body=max_body_option(options.get("max_body"), "api"),
     )

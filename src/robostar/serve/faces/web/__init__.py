@@ -8,7 +8,12 @@ Options (the ``[web]`` section):
   reverse proxy that terminates TLS; see docs/web.md);
 - ``users``: the users file written by ``robostar serve user add`` (no file: read-only for all);
 - ``secret_file``: where the cookie-signing secret is kept (made on first start, mode 0600);
-  without it a new secret is drawn at every start and everyone signs in again.
+  without it a new secret is drawn at every start (sessions are kept by the server: a restart
+  signs everyone out either way);
+- ``hosts``: host names the dashboard answers to besides its listen address (and, on loopback,
+  ``localhost``/``127.0.0.1``/``::1``): the names a reverse proxy passes on in ``Host``. Any
+  other ``Host`` gets a 400 (DNS rebinding);
+- ``max_body``: the largest request body read, in bytes (default 2 MiB; 413 past it).
 
 See :mod:`robostar.serve.faces.web.app` for the pages and the rules every request follows.
 """
@@ -40,6 +45,8 @@ _KNOWN = frozenset(
         "tls_cert",
         "tls_key",
         "behind_proxy",
+        "hosts",
+        "max_body",
     )
 )
 log = logging.getLogger(__name__)
@@ -53,6 +60,7 @@ class WebFace:
         if unknown:
             raise UsageError(f"web: unknown option(s) {', '.join(sorted(unknown))}")
         from robostar.serve.faces.web.app import WebSettings, build_app
+        from robostar.serve.http_guard import hosts_option, max_body_option
         from robostar.serve.users import UserStore
 
         self.host, self.port = _listen(str(options.get("listen", DEFAULT_LISTEN)))
@@ -60,6 +68,7 @@ class WebFace:
         if (tls[0] is None) != (tls[1] is None):
             raise UsageError("web: give both tls_cert and tls_key, or neither")
         self._tls = tls if tls[0] is not None else None
+        self._behind_proxy = bool(options.get("behind_proxy"))
         if not _is_loopback(self.host):
             if not options.get("allow_remote"):
                 raise UsageError(
@@ -71,6 +80,13 @@ class WebFace:
                     "web: serving to the network needs TLS (tls_cert and tls_key) or a reverse "
                     "proxy that terminates it (behind_proxy = true); see docs/web.md"
                 )
+        hosts = hosts_option(options.get("hosts"), "web")
+        if options.get("behind_proxy") and not hosts:
+            log.warning(
+                "web: behind_proxy without hosts: only a Host of %s (or a loopback name) is "
+                "answered; list the names the proxy serves in hosts",
+                self.host,
+            )
         users_path = options.get("users")
         self.users = UserStore(str(users_path) if users_path is not None else None)
         audit = getattr(server.config, "audit_path", None)
@@ -79,6 +95,9 @@ class WebFace:
             secret=_secret(options.get("secret_file")),
             https_only=self._tls is not None or bool(options.get("behind_proxy")),
             audit_path=str(audit) if audit is not None else None,
+            listen_host=self.host,
+            hosts=hosts,
+            max_body=max_body_option(options.get("max_body"), "web"),
         )
         self.app = build_app(server, settings)
         self._server: Any = None
@@ -102,6 +121,9 @@ class WebFace:
             ssl_certfile=self._tls[0] if self._tls else None,
             ssl_keyfile=self._tls[1] if self._tls else None,
             ws="auto",
+            # X-Forwarded-For names the client only behind a proxy (from 127.0.0.1); otherwise a
+            # local client could pick its address for the sign-in limits with that header
+            proxy_headers=self._behind_proxy,
             timeout_graceful_shutdown=2,
         )
         self._server = uvicorn.Server(config)

@@ -20,7 +20,7 @@ import zipfile
 from collections.abc import AsyncIterator, Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 from starlette.applications import Starlette
 from starlette.middleware import Middleware
@@ -48,14 +48,25 @@ from robostar.errors import RobostarError, UsageError
 from robostar.protocol.fields import FileName
 from robostar.serve.faces.web.auth import (
     CSRF_FIELD,
+    SESSION_LIFETIME,
     Account,
     LoginLimiter,
+    Sessions,
     account_of,
     csrf_ok,
+    read_form,
 )
 from robostar.serve.faces.web.jog import JogSession
 from robostar.serve.faces.web.variables import KINDS, PAGE_MAX, build_write, page_range, read_rows
 from robostar.serve.faces.web.views import axis_unit, change_json, sample_json
+from robostar.serve.http_guard import (
+    DEFAULT_MAX_BODY,
+    BodyLimit,
+    HostGuard,
+    HostRule,
+    Refusals,
+    same_secret,
+)
 from robostar.serve.jsonable import jsonable
 from robostar.serve.lease import Who
 from robostar.serve.line import Line
@@ -79,6 +90,12 @@ MAX_UPLOAD = 256 * 1024
 """Largest file accepted for upload (a 2000-step job is well under this)."""
 EVENT_KEEPALIVE = 15.0
 """Seconds between SSE comments on a quiet stream, so proxies keep it open."""
+SIGN_IN_ATTEMPTS_PER_ADDRESS = 20
+"""Failed sign-ins from one address, whatever the names, in a minute (5 per address and name)."""
+CONCURRENT_VERIFIES = 2
+"""Password checks running at once (argon2 takes 64 MiB and a core's worth of time each)."""
+WAITING_SIGN_INS = 32
+"""Sign-ins waiting for a password check; more are told to try again."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -89,6 +106,12 @@ class WebSettings:
     secret: str
     https_only: bool = False
     audit_path: str | None = None
+    listen_host: str = "127.0.0.1"
+    """The address the dashboard listens on (with ``hosts``: the Host headers it answers)."""
+    hosts: tuple[str, ...] = ()
+    """Host names besides the listen address (the names a reverse proxy passes on)."""
+    max_body: int = DEFAULT_MAX_BODY
+    """The largest request body read, in bytes."""
 
 
 class _Forbidden(Exception):
@@ -103,8 +126,13 @@ def build_app(server: LineServer, settings: WebSettings) -> Starlette:
     templates = Jinja2Templates(directory=str(_HERE / "templates"))
     templates.env.globals["csrf_field"] = CSRF_FIELD
     templates.env.filters["clock"] = _clock
-    limiter = LoginLimiter()
+    limiter = LoginLimiter()  # per address and name: one user's lock-out spares the others
+    address_limiter = LoginLimiter(attempts=SIGN_IN_ATTEMPTS_PER_ADDRESS)  # many names, one address
+    verifying = asyncio.Semaphore(CONCURRENT_VERIFIES)
+    waiting = 0
     users = settings.users
+    sessions = Sessions()
+    refusals = Refusals()
 
     def line_of(request: Request | WebSocket) -> Line:
         name = request.path_params["line"]
@@ -114,7 +142,7 @@ def build_app(server: LineServer, settings: WebSettings) -> Starlette:
         return line
 
     def page(request: Request, template: str, /, **context: Any) -> HTMLResponse:
-        account = account_of(request, users)
+        account = account_of(request, users, sessions)
         return templates.TemplateResponse(
             request,
             template,
@@ -126,13 +154,20 @@ def build_app(server: LineServer, settings: WebSettings) -> Starlette:
             },
         )
 
-    async def guard(request: Request, role: Role) -> Account:
-        """The account of a state-changing request, or _Forbidden: CSRF first, then the role."""
-        account = account_of(request, users)
-        if not await csrf_ok(request, account):
-            raise _Forbidden(403, "the form is stale or forged (CSRF token missing or wrong)")
+    def refuse(line: Line | None, account: Account, what: str, status: int, why: str) -> NoReturn:
+        """Refuse a request (_Forbidden), in the line's audit log when it names a line."""
+        if line is not None:
+            refusals.record(line, what, Who(account.name, "web"), why)
+        raise _Forbidden(status, why)
+
+    async def guard(request: Request, role: Role, line: Line | None, what: str) -> Account:
+        """The account of a state-changing request, or _Forbidden (audited): the role first (no
+        body is read for a visitor without it), then the CSRF token."""
+        account = account_of(request, users, sessions)
         if not account.may(role):
-            raise _Forbidden(403, f"this needs the {role.name.lower()} role; sign in first")
+            refuse(line, account, what, 403, _needs(role))
+        if not await csrf_ok(request, account):
+            refuse(line, account, what, 403, _STALE)
         return account
 
     async def run(line: Line, command: Command[Any], account: Account) -> Any:
@@ -188,9 +223,9 @@ def build_app(server: LineServer, settings: WebSettings) -> Starlette:
     async def point_edit(request: Request) -> Response:
         """The point table editor: one point of a PNT file changed, the file written back (FB)."""
         line = line_of(request)
-        account = await guard(request, Role.ENGINEER)
+        account = await guard(request, Role.ENGINEER, line, "point edit")
         channel, name = _file_params(request)
-        form = await request.form()
+        form = await read_form(request)
         if form.get("confirmed") != "yes":
             raise _Forbidden(428, "confirm the change of the point first")
         if not name.is_points:
@@ -230,8 +265,8 @@ def build_app(server: LineServer, settings: WebSettings) -> Starlette:
 
     async def upload_preview(request: Request) -> Response:
         line = line_of(request)
-        await guard(request, Role.ENGINEER)
-        form = await request.form()
+        await guard(request, Role.ENGINEER, line, "file upload")
+        form = await read_form(request)
         channel = _int(str(form.get("channel", "1")), "channel", 1, 3)
         upload = form.get("file")
         if upload is None or isinstance(upload, str):
@@ -262,8 +297,8 @@ def build_app(server: LineServer, settings: WebSettings) -> Starlette:
 
     async def upload_confirm(request: Request) -> Response:
         line = line_of(request)
-        account = await guard(request, Role.ENGINEER)
-        form = await request.form()
+        account = await guard(request, Role.ENGINEER, line, "file upload")
+        form = await read_form(request)
         if form.get("confirmed") != "yes":
             raise _Forbidden(428, "confirm the upload on its preview page")
         channel = _int(str(form.get("channel", "1")), "channel", 1, 3)
@@ -304,8 +339,8 @@ def build_app(server: LineServer, settings: WebSettings) -> Starlette:
     async def variable_write(request: Request) -> Response:
         """GW of one integer or float, confirmed, by an engineer, under the lease and audited."""
         line = line_of(request)
-        account = await guard(request, Role.ENGINEER)
-        form = await request.form()
+        account = await guard(request, Role.ENGINEER, line, "variable write")
+        form = await read_form(request)
         if form.get("confirmed") != "yes":
             raise _Forbidden(428, "confirm the new value first")
         kind = str(form.get("kind", ""))
@@ -337,12 +372,15 @@ def build_app(server: LineServer, settings: WebSettings) -> Starlette:
     # -- actions -------------------------------------------------------------------------------
     async def action(request: Request) -> Response:
         line = line_of(request)
+        # the role every action needs and the CSRF header, before the body is read
+        account = await guard(request, _ACTION_ROLE, line, "action")
         body = await _json_body(request)
         name = str(body.get("action", ""))
         spec = _ACTIONS.get(name)
         if spec is None:
             raise _Forbidden(400, f"unknown action {name!r}")
-        account = await guard(request, spec.role)
+        if not account.may(spec.role):
+            refuse(line, account, f"action {name}", 403, _needs(spec.role))
         if body.get("confirmed") is not True:
             raise _Forbidden(428, f"{name}: confirm it first")
         command = spec.build(body)
@@ -352,7 +390,7 @@ def build_app(server: LineServer, settings: WebSettings) -> Starlette:
     async def release(request: Request) -> Response:
         """Give the controller's lease back (only its holder can)."""
         line = line_of(request)
-        account = await guard(request, Role.OPERATOR)
+        account = await guard(request, Role.OPERATOR, line, "lease release")
         released = line.lease.release(Who(account.name, "web"))
         return JSONResponse({"ok": True, "released": released})
 
@@ -361,29 +399,51 @@ def build_app(server: LineServer, settings: WebSettings) -> Starlette:
         return page(request, "login.html", error=None)
 
     async def login(request: Request) -> Response:
-        account = account_of(request, users)
-        form = await request.form()
-        name = str(form.get("username", ""))
-        # per address and name: one user's lock-out does not lock out the others at that address
-        address = f"{request.client.host if request.client else '?'}|{name}"
+        nonlocal waiting
+        account = account_of(request, users, sessions)
         if not await csrf_ok(request, account):
             return page(request, "login.html", error="The form is stale: reload and try again.")
-        wait = limiter.blocked_for(address)
-        if wait > 0:
+        form = await read_form(request)
+        name = str(form.get("username", ""))
+        address = request.client.host if request.client else "?"
+        # per address and name (a user's lock-out spares the others at that address), and per
+        # address alone (many names tried from one place)
+        keys = ((limiter, f"{address}|{name}"), (address_limiter, address))
+
+        def blocked() -> float:
+            return max(which.blocked_for(key) for which, key in keys)
+
+        if (wait := blocked()) > 0:
             return page(request, "login.html", error=f"Too many attempts: wait {wait:.0f} s.")
-        user = await asyncio.to_thread(users.verify, name, str(form.get("password", "")))
+        if waiting >= WAITING_SIGN_INS:
+            return page(request, "login.html", error="Too many sign-ins at once: try again.")
+        waiting += 1
+        try:
+            async with verifying:  # a few argon2 checks at a time, however many ask
+                if (wait := blocked()) > 0:  # failures while this one waited count too
+                    return page(
+                        request, "login.html", error=f"Too many attempts: wait {wait:.0f} s."
+                    )
+                password = str(form.get("password", ""))
+                user = await asyncio.to_thread(users.verify, name, password)
+        finally:
+            waiting -= 1
         if user is None:
-            limiter.failed(address)
+            for which, key in keys:
+                which.failed(key)
             return page(request, "login.html", error="Wrong name or password.")
-        limiter.succeeded(address)
+        limiter.succeeded(keys[0][1])  # this name's count only: the address's stays
+        sessions.close(request.session.get("sid"))
         request.session.clear()
         request.session["user"] = user.name
+        request.session["sid"] = sessions.open(user)
         request.session["csrf"] = secrets.token_urlsafe(32)  # a new session, a new token
         return RedirectResponse("/", status_code=303)
 
     async def logout(request: Request) -> Response:
-        account = account_of(request, users)
+        account = account_of(request, users, sessions)
         if await csrf_ok(request, account):
+            sessions.close(request.session.get("sid"))  # the cookie, replayed, is anonymous
             request.session.clear()
         return RedirectResponse("/", status_code=303)
 
@@ -403,7 +463,7 @@ def build_app(server: LineServer, settings: WebSettings) -> Starlette:
         return JSONResponse({"line": line.name, "values": values})
 
     async def jog_socket(websocket: WebSocket) -> None:
-        await _jog_socket(websocket, server, users)
+        await _jog_socket(websocket, server, users, sessions, refusals)
 
     routes = [
         Route("/", overview),
@@ -432,12 +492,18 @@ def build_app(server: LineServer, settings: WebSettings) -> Starlette:
     ]
     middleware = [
         Middleware(
+            HostGuard,
+            rule=HostRule(settings.listen_host, settings.hosts),
+            respond=_guard_error,
+        ),
+        Middleware(BodyLimit, limit=settings.max_body, respond=_guard_error),
+        Middleware(
             SessionMiddleware,
             secret_key=settings.secret,
             session_cookie="robostar_session",
             same_site="strict",
             https_only=settings.https_only,
-            max_age=12 * 3600,
+            max_age=int(SESSION_LIFETIME),
         ),
     ]
     app = Starlette(
@@ -448,6 +514,7 @@ def build_app(server: LineServer, settings: WebSettings) -> Starlette:
             RobostarError: _robostar_error_response,
         },
     )
+    app.state.sessions = sessions
     return app
 
 
@@ -469,6 +536,13 @@ def _on(body: dict[str, Any]) -> bool:
     return value
 
 
+_STALE = "the form is stale or forged (CSRF token missing or wrong)"
+
+
+def _needs(role: Role) -> str:
+    return f"this needs the {role.name.lower()} role; sign in first"
+
+
 _ACTIONS: dict[str, _Action] = {
     "servo": _Action(Role.OPERATOR, lambda b: Servo(_channel(b), _on(b))),
     "job_start": _Action(Role.OPERATOR, lambda b: StartJob(_channel(b))),
@@ -485,6 +559,10 @@ _ACTIONS: dict[str, _Action] = {
         ),
     ),
 }
+
+
+_ACTION_ROLE = min(spec.role for spec in _ACTIONS.values())
+"""The role every action needs at least (checked before the body is read)."""
 
 
 # -- helpers ---------------------------------------------------------------------------------
@@ -554,9 +632,10 @@ async def _json_body(request: Request) -> dict[str, Any]:
 
 
 def _channels(line: Line) -> list[int]:
-    info = line.model.get("info")
-    if info is not None and getattr(info.value, "channels", None):
-        return [c.channel for c in info.value.channels]
+    """The channels to show and back up: the configured ones, else those the controller has
+    (a channel AD reports NOT_DEFINED, with no axes, is none); all three until AD answered."""
+    if line.config.channels or line.info is not None:
+        return list(line.channels())
     return [1, 2, 3]
 
 
@@ -690,20 +769,39 @@ async def _event_stream(request: Request, lines: list[Line]) -> AsyncIterator[st
             subscription.close()
 
 
-async def _jog_socket(websocket: WebSocket, server: LineServer, users: UserStore) -> None:
+async def _jog_socket(
+    websocket: WebSocket,
+    server: LineServer,
+    users: UserStore,
+    sessions: Sessions,
+    refusals: Refusals,
+) -> None:
     """The jog panel's socket: only an operator, with the page's CSRF token, from this origin."""
     name = websocket.path_params["line"]
     line = server.lines.get(name)
-    account = account_of(websocket, users)
+    account = account_of(websocket, users, sessions)
     origin = websocket.headers.get("origin")
     host = websocket.headers.get("host")
     token = websocket.query_params.get("csrf")
     same_origin = origin is not None and host is not None and origin.split("://", 1)[-1] == host
-    if line is None or not same_origin or token != account.csrf or not account.may(Role.OPERATOR):
+    why = None
+    if not same_origin:
+        why = "the jog socket was opened from another origin"
+    elif not same_secret(token, account.csrf):
+        why = _STALE
+    elif not account.may(Role.OPERATOR):
+        why = _needs(Role.OPERATOR)
+    if line is None or why is not None:
+        if line is not None and why is not None:
+            refusals.record(line, "jog", Who(account.name, "web"), why)
         await websocket.close(code=4403)
         return
     await websocket.accept()
-    session = JogSession(line, Who(account.name, "web"))
+
+    def still_operator() -> bool:  # a sign-out, a removed user or a lowered role ends the jog
+        return account_of(websocket, users, sessions).may(Role.OPERATOR)
+
+    session = JogSession(line, Who(account.name, "web"), still_operator)
     try:
         await session.run(websocket)
     except WebSocketDisconnect:
@@ -719,6 +817,10 @@ async def _forbidden_response(request: Request, exc: Exception) -> Response:
 
 async def _robostar_error_response(request: Request, exc: Exception) -> Response:
     return _error(request, 409, str(exc))
+
+
+def _guard_error(status: int, message: str) -> Response:
+    return JSONResponse({"ok": False, "error": message}, status_code=status)
 
 
 def _error(request: Request, status: int, message: str) -> Response:

@@ -13,6 +13,7 @@ import contextlib
 import json
 import logging
 import time
+from collections.abc import Callable
 from typing import Any, Protocol
 
 from robostar.commands.motion import JogContinue, JogStart, JogStop
@@ -41,9 +42,12 @@ class _Socket(Protocol):
 class JogSession:
     """One browser's jog panel on one line: at most one axis moving at a time."""
 
-    def __init__(self, line: Line, who: Who) -> None:
+    def __init__(self, line: Line, who: Who, allowed: Callable[[], bool] | None = None) -> None:
         self.line = line
         self.who = who
+        self.allowed = allowed
+        """Asked at every message: may the page's user still jog (signed in, a role)? When no
+        longer, the axis stops and the session ends."""
         self.channel: int | None = None
         self._last_heard = 0.0
         self._last_bf = 0.0
@@ -56,6 +60,10 @@ class JogSession:
         while True:
             message = _parse(await socket.receive_text())
             kind = message.get("type")
+            if self.allowed is not None and not self.allowed():
+                await self.stop("signed out, or no longer an operator")
+                await self._tell({"type": "error", "error": "sign in again as an operator"})
+                return
             if kind == "start":
                 await self._start(message)
             elif kind == "keepalive":
