@@ -12,6 +12,7 @@ from typing import Any
 import httpx
 
 from robostar.serve import LineConfig, LineServer, ServeConfig
+from robostar.serve.line import MAX_QUEUED_READS
 
 SET_SPEED = {"command": "SetSpeed", "args": {"channel": 1, "speed": 123}, "implicit_lease": True}
 
@@ -222,3 +223,17 @@ def test_refusals_are_recorded_at_a_capped_rate_and_the_skipped_counted() -> Non
     refusals.record(line, "POST /x", Who("anonymous", "web"), "no role")  # type: ignore[arg-type]
     assert "995 refusals before this one not recorded" in line.entries[-1][1]
     assert refusals.skipped == 0
+
+
+def test_a_line_too_busy_for_one_more_read_is_503_not_a_gateway_error() -> None:
+    async def test(server: LineServer, base: str, http: httpx.AsyncClient) -> None:
+        line = server.lines["cell1"]
+        line._reads_waiting = MAX_QUEUED_READS  # as if that many reads were waiting
+        read = {"command": "ReadSpeed", "args": {"channel": 1}, "max_age": 0}
+        answer = await http.post(f"{base}/lines/cell1/commands", json=read)
+        assert answer.status_code == 503, answer.text
+        assert "reads are waiting" in answer.text
+        line._reads_waiting = 0
+        assert await _speed(base, http) >= 0
+
+    _run(test)

@@ -56,7 +56,7 @@ from robostar.serve.http_guard import (
 )
 from robostar.serve.jsonable import jsonable, sample_json
 from robostar.serve.lease import LeaseHeldError, Who
-from robostar.serve.line import Line, LineDownError
+from robostar.serve.line import Line, LineBusyError, LineDownError
 from robostar.serving import check_host, is_loopback, parse_listen
 from robostar.serving.address import warn_remote
 
@@ -262,6 +262,8 @@ def build_app(
             return _error(409, str(exc), "lease")
         except LineDownError as exc:
             return _error(503, str(exc), "line down")
+        except LineBusyError as exc:
+            return _error(503, str(exc), "line busy")
         except UsageError as exc:
             return _error(400, str(exc), "usage")
         except ControllerError as exc:

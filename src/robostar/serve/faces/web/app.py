@@ -69,7 +69,7 @@ from robostar.serve.http_guard import (
 )
 from robostar.serve.jsonable import jsonable
 from robostar.serve.lease import Who
-from robostar.serve.line import Line
+from robostar.serve.line import Line, LineBusyError, LineDownError
 from robostar.serve.server import LineServer
 from robostar.serve.users import Role, UserStore
 from robostar.types import (
@@ -816,7 +816,9 @@ async def _forbidden_response(request: Request, exc: Exception) -> Response:
 
 
 async def _robostar_error_response(request: Request, exc: Exception) -> Response:
-    return _error(request, 409, str(exc))
+    # a line down or too busy to take one more read: try again later (not a conflict)
+    status = 503 if isinstance(exc, LineDownError | LineBusyError) else 409
+    return _error(request, status, str(exc))
 
 
 def _guard_error(status: int, message: str) -> Response:
