@@ -191,11 +191,16 @@ def test_a_trickle_of_noise_cannot_hold_the_client() -> None:
 # -- two-phase waits -------------------------------------------------------------------------------
 @pytest.mark.parametrize("wait", [b"99999999", b"1x", b"-1", b"100"])
 def test_an_announced_wait_that_is_not_two_digits_is_a_protocol_error(wait: bytes) -> None:
+    # DB is a state change the controller answered: a protocol error, and an unknown outcome
     first = encode_packet(make_answer(0x30, wait))
     peer = Scripted(lambda data, n: [(0.0, first)])
     started = time.monotonic()
-    with client(peer) as robot, pytest.raises(LinkRuleError, match="not two digits"):
+    with (
+        client(peer) as robot,
+        pytest.raises(OutcomeUnknownError, match="not two digits") as caught,
+    ):
         robot.servo(1, True)
+    assert isinstance(caught.value.__cause__, LinkRuleError)
     assert time.monotonic() - started < 2.0
     assert peer.resets == 1  # the link said RST
 
@@ -234,3 +239,26 @@ def test_a_slow_controller_is_served_at_its_own_speed(latency: float) -> None:
         took = time.monotonic() - started
     assert len(peer.requests) == 3  # no retry was needed
     assert took < 3 * latency + 1.5  # well short of a timeout per call
+
+
+# -- an answer that breaks the protocol ----------------------------------------------------------
+@pytest.mark.parametrize(
+    "answer",
+    [
+        encode_packet(b"\x35"),  # a flag the protocol has not got
+        encode_packet(b"\x34"),  # END, to a single exchange
+    ],
+)
+def test_a_state_change_whose_answer_breaks_the_protocol_has_an_unknown_outcome(
+    answer: bytes,
+) -> None:
+    peer = Scripted(lambda data, n: [(0.0, answer)])
+    with client(peer) as robot, pytest.raises(OutcomeUnknownError, match="broke the protocol"):
+        robot.set_speed(1, 50)
+    assert peer.executed("CB") == 1
+
+
+def test_a_read_whose_answer_breaks_the_protocol_is_a_protocol_error() -> None:
+    peer = Scripted(lambda data, n: [(0.0, encode_packet(b"\x35"))])
+    with client(peer) as robot, pytest.raises(LinkRuleError):
+        robot.speed(1)

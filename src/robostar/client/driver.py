@@ -103,14 +103,24 @@ def failure_error(command: Command[Any], failure: ExchangeFailed, policy: Policy
                 code, failure.detail or f"no answer within {policy.timeout:g} s"
             )
         return ReplyTimeoutError(code, policy.timeout, failure.detail)
-    if reason is FailReason.TOO_LONG:
-        return AnswerTooLongError(code, failure.detail)
     if reason is FailReason.NAK_LIMIT:
         if command.CHANGES_STATE and _answer_was_corrupt(failure):
             return OutcomeUnknownError(code, "its answer arrived corrupt too many times")
         return NakLimitError(code, MAX_NAKS + 1)
-    if reason is FailReason.RULE:
-        return failure.error or LinkRuleError("host", failure.state.value, "packet", failure.detail)
+    if reason is FailReason.TOO_LONG or reason is FailReason.RULE:
+        error: RobostarError = (
+            AnswerTooLongError(code, failure.detail)
+            if reason is FailReason.TOO_LONG
+            else failure.error
+            or LinkRuleError("host", failure.state.value, "packet", failure.detail)
+        )
+        if command.CHANGES_STATE and failure.state is not State.RESYNC:
+            # The controller answered, so it had the request: whatever broke in its answer,
+            # whether it carried the request out is not known (never a plain protocol error).
+            unknown = OutcomeUnknownError(code, f"its answer broke the protocol ({error})")
+            unknown.__cause__ = error
+            return unknown
+        return error
     if command.CHANGES_STATE and failure.state is not State.RESYNC:
         # The request was out: an RST (or a superseded exchange) says nothing of whether the
         # controller carried it out.
