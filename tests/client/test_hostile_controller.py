@@ -151,17 +151,19 @@ def test_a_controller_repeating_its_previous_answer_cannot_hold_the_client() -> 
             asked.append(time.monotonic())
             if n == 1:
                 return [(0.0, OK)]
-            # 0.4 s apart: well past the 0.27 s (90 % of the 0.3 s resend period) before which
-            # a copy is new data, so that a loaded machine's late delivery of one copy cannot
-            # bring the next within it
-            return [(0.4 * k, OK) for k in range(1, 200)]
+            # 0.5 s apart: each well past the 0.27 s (90 % of the controller's 0.3 s resend
+            # period) before which a copy is new data, and well within the 1 s reply timeout
+            # (then 1.5 s with the resend grace), so that a loaded machine's late delivery of
+            # one copy can neither bring the next under the one nor the first past the other
+            return [(0.5 * k, OK) for k in range(1, 200)]
 
         def on_ack(n: int, acked: list[float] = acked) -> Reply:
             acked.append(time.monotonic())
             return ()
 
         peer = Scripted(script, on_ack)
-        with client(peer) as robot:
+        transport = PeerTransport(peer)
+        with Client(transport, timeout=1.0, controller_timeout=0.3, poll_interval=0.005) as robot:
             robot.set_speed(1, 40)
             started = time.monotonic()
             try:
@@ -177,7 +179,7 @@ def test_a_controller_repeating_its_previous_answer_cannot_hold_the_client() -> 
         pytest.skip("the machine never let the client send its request behind its ACK")
     assert isinstance(outcome, OutcomeUnknownError) and "overall limit" in str(outcome)
     # timeout x (3 NAKs + 1) + (timeout + grace) for its one packet, and slack for the machine
-    assert took < 0.3 * 4 + 0.8 + 2.0
+    assert took < 1.0 * 4 + 1.5 + 2.0
 
 
 def test_a_trickle_of_noise_cannot_hold_the_client() -> None:
