@@ -12,7 +12,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, cast
 
-from robostar.commands.base import Command, split_answer
+from robostar.commands.base import Command, Shape, split_answer
 from robostar.commands.files import DownloadFile, UploadFile
 from robostar.errors import LinkRuleError
 from robostar.protocol.fields import FLAG_FAILED, FLAG_REJECTED, FLAG_UNSUPPORTED, FileName
@@ -103,6 +103,8 @@ class Exchange:
         self._flag: int | None = None
         self._failure: ExchangeFailed | None = None
         self._total = len(self._bodies) if upload else None
+        # A SINGLE exchange's clean answer is taken in one step (HostLink.receive_clean_answer).
+        self._single = command.SHAPE is Shape.SINGLE
         self.done = False
 
     def start(self, now: float) -> None:
@@ -130,6 +132,15 @@ class Exchange:
         return deadline
 
     def receive(self, data: bytes, now: float) -> None:
+        if self._single:
+            packet = self.link.receive_clean_answer(data, now)
+            if packet is not None:
+                # What _handle does with the events receive_data would have returned
+                # (AnswerReceived with flag 0x30, then ExchangeComplete).
+                self._packets.append(packet)
+                self._answer_progress(packet)
+                self.done = True
+                return
         self._handle(self.link.receive_data(data, now), now)
 
     def tick(self, now: float) -> None:

@@ -33,6 +33,7 @@ from robostar.protocol.frame import (
     FrameEvent,
     Packet,
     encode_packet,
+    lone_frame,
 )
 from robostar.protocol.packets import Shape, split_answer
 
@@ -684,6 +685,53 @@ class HostLink(Link):
             self._take_backlog()
         return self._take_events()
 
+    def receive_clean_answer(self, data: bytes, now: float) -> bytes | None:
+        """The usual read of a single exchange, in one step: when ``data`` is exactly one
+        whole frame with a good LRC (:func:`~robostar.protocol.frame.lone_frame`) holding an
+        OK answer (flag 0x30; not one taken for the controller resending the answer ACKed
+        last) to the SINGLE request this link waits on, with nothing held and no frame begun,
+        the link does what :meth:`receive_data` does with it (ACK it, end the exchange) and
+        returns the packet's data. The events :meth:`receive_data` would have returned are
+        then exactly ``[AnswerReceived(packet, 0x30, final=True), ExchangeComplete()]``; none
+        are made.
+
+        Otherwise it returns None and has changed nothing: give the same bytes to
+        :meth:`receive_data`, whose rules decide.
+        """
+        if (
+            self.state is not State.WAIT_ANSWER
+            or self.shape is not Shape.SINGLE
+            or type(data) is not bytes
+            or self._backlog
+            or not self.decoder.between_frames
+        ):
+            return None
+        packet = lone_frame(data)
+        if packet is None or (packet == self._last_received and self._is_resend(packet, now)):
+            return None
+        # The flag as _flag_of reads it: a leading FF is the dummy byte.
+        offset = 1 if packet[:1] == b"\xff" else 0
+        size = len(packet)
+        if (
+            size <= offset
+            or packet[offset] != FLAG_OK
+            or self._packets >= self._max_packets
+            or self._bytes + size > self._max_packets * MAX_PACKET
+        ):
+            return None
+        # _h_answer's steps for this packet, then _finish (in that order in _h_answer).
+        self._now = now
+        self._corrupt = 0
+        self._packets += 1
+        self._bytes += size
+        self._out.append(ACK)
+        self._last_received = packet
+        self._last_ack_at = now
+        self._limit_at = None
+        self._deadline = None
+        self.state = State.IDLE
+        return packet
+
     def send_upload_line(self, body: bytes, now: float) -> list[LinkEvent]:
         """FB: send one content packet (``0x30`` + body) after :class:`UploadReady`."""
         self._now = now
@@ -823,8 +871,9 @@ class HostLink(Link):
         self._arm(self.resync_gap)
         self._emit(Ignored("corrupt frame in the resync gap", self.state))
 
-    def _is_resend(self, data: bytes) -> bool:
-        """Is ``data`` the controller resending the answer we ACKed last (our ACK was lost)?"""
+    def _is_resend(self, data: bytes, now: float) -> bool:
+        """Is ``data``, arriving at ``now``, the controller resending the answer we ACKed last
+        (our ACK was lost)?"""
         if data != self._last_received:
             return False
         if self.state is State.WAIT_SECOND and len(split_answer(data).body) == 0:
@@ -832,7 +881,7 @@ class HostLink(Link):
             return False
         # The controller resends only after its own timeout: a copy sooner than that is new
         # data (a slow controller answering the same request with the same bytes).
-        if self._now - self._last_ack_at < 0.9 * self.peer_resend_after:
+        if now - self._last_ack_at < 0.9 * self.peer_resend_after:
             return False
         if self.state is State.WAIT_ANSWER:
             # The previous exchange's last answer again, late, while our request went out
@@ -848,7 +897,7 @@ class HostLink(Link):
 
     def _h_answer(self, data: bytes) -> None:
         self._corrupt = 0  # _good_packet(), inline
-        if data == self._last_received and self._is_resend(data):
+        if data == self._last_received and self._is_resend(data, self._now):
             self._ack(data)
             self._emit(Ignored("resent answer (ACKed again)", self.state))
             if self.state is State.WAIT_ANSWER and not self._send_once:
