@@ -12,7 +12,7 @@ from typing import Any, Self, TypeVar, cast
 from robostar.client._async_face import AsyncOperations
 from robostar.client.core import DRAIN_READS, ClientBase, Settings, check_keepalive
 from robostar.client.driver import NOT_DECODED, command_plan, decoded_at_once
-from robostar.client.exchange import Exchange, Outcome, Progress
+from robostar.client.exchange import Exchange, Progress
 from robostar.client.jog import AsyncJog, jog_start
 from robostar.client.locks import AsyncPriorityLock
 from robostar.client.plan import Call, Effect, Plan, run_plan_async
@@ -123,11 +123,12 @@ class AsyncClient(AsyncOperations, ClientBase):
         try:
             if not self.transport.is_open:
                 await self._ensure_open()
-            outcome = await self._exchange(command, progress)
+            exchange = await self._exchange(command, progress)
             # the usual case, a clean answer that decodes, needs none of the rules
-            result = decoded_at_once(command, outcome)
+            result = decoded_at_once(command, exchange)
             if result is not NOT_DECODED:
                 return result
+            outcome = exchange.outcome()
             plan = command_plan(command, self._policy)
             request = next(plan)  # the rules always ask for the command first
             while True:
@@ -135,12 +136,13 @@ class AsyncClient(AsyncOperations, ClientBase):
                     request = plan.send(outcome)
                 except StopIteration as done:
                     return cast(R, done.value)
-                outcome = await self._exchange(request, progress if request is command else None)
+                exchange = await self._exchange(request, progress if request is command else None)
+                outcome = exchange.outcome()
         finally:
             lock.release()
 
     # -- the line -------------------------------------------------------------------------
-    async def _exchange(self, command: Command[Any], progress: Progress | None) -> Outcome:
+    async def _exchange(self, command: Command[Any], progress: Progress | None) -> Exchange:
         """One exchange, as one loop (the asyncio twin of Client._exchange)."""
         transport = self.transport
         traced = self._trace is not None
@@ -159,7 +161,7 @@ class AsyncClient(AsyncOperations, ClientBase):
                         self._traced_sent(out)
                     await transport.write(out)
                 if exchange.done:
-                    return exchange.outcome()
+                    return exchange
                 deadline = link.next_deadline()
                 if deadline is None:
                     deadline = exchange.deadline()  # raises: the link must be timing a wait

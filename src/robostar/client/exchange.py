@@ -96,6 +96,7 @@ class Exchange:
         # Encoding checks every field; a bad one raises FieldError before anything is written.
         self.request = command.encode()
         upload, self._download = _kind(command)
+        self.upload = upload
         self._bodies = cast(UploadFile, command).upload_bodies() if upload else []
         self._next_line = 0
         self._accepted = 0
@@ -153,6 +154,14 @@ class Exchange:
 
     def outcome(self) -> Outcome:
         return Outcome(tuple(self._packets), self._flag, self._failure, self._accepted)
+
+    def answer(self) -> tuple[bytes, ...] | None:
+        """The answer packets when the exchange ended with an answer the rules would only
+        decode (no failure, no error flag, not an upload); otherwise None (then the rules
+        look at :meth:`outcome`)."""
+        if self._failure is None and self._flag is None and not self.upload:
+            return tuple(self._packets)
+        return None
 
     # -- events ----------------------------------------------------------------------------
     def _handle(self, events: list[LinkEvent], now: float) -> None:

@@ -11,7 +11,7 @@ from typing import Any, Self, TypeVar, cast
 from robostar.client._sync_face import SyncOperations
 from robostar.client.core import DRAIN_READS, ClientBase, Settings, check_keepalive
 from robostar.client.driver import NOT_DECODED, command_plan, decoded_at_once
-from robostar.client.exchange import Exchange, Outcome, Progress
+from robostar.client.exchange import Exchange, Progress
 from robostar.client.jog import Jog, jog_start
 from robostar.client.locks import PriorityLock
 from robostar.client.plan import Call, Effect, Plan, run_plan
@@ -131,11 +131,12 @@ class Client(SyncOperations, ClientBase):
         try:
             if not self.transport.is_open:
                 self._ensure_open()
-            outcome = self._exchange(command, progress)
+            exchange = self._exchange(command, progress)
             # the usual case, a clean answer that decodes, needs none of the rules
-            result = decoded_at_once(command, outcome)
+            result = decoded_at_once(command, exchange)
             if result is not NOT_DECODED:
                 return result
+            outcome = exchange.outcome()
             plan = command_plan(command, self._policy)
             request = next(plan)  # the rules always ask for the command first
             while True:
@@ -143,12 +144,13 @@ class Client(SyncOperations, ClientBase):
                     request = plan.send(outcome)
                 except StopIteration as done:
                     return cast(R, done.value)
-                outcome = self._exchange(request, progress if request is command else None)
+                exchange = self._exchange(request, progress if request is command else None)
+                outcome = exchange.outcome()
         finally:
             lock.release()
 
     # -- the line -------------------------------------------------------------------------
-    def _exchange(self, command: Command[Any], progress: Progress | None) -> Outcome:
+    def _exchange(self, command: Command[Any], progress: Progress | None) -> Exchange:
         """One exchange, as one loop: stray input first, the request, then answers until the
         link says the exchange is over (see core.ClientBase for the rules it shares)."""
         transport = self.transport
@@ -168,7 +170,7 @@ class Client(SyncOperations, ClientBase):
                         self._traced_sent(out)
                     transport.write(out)
                 if exchange.done:
-                    return exchange.outcome()
+                    return exchange
                 deadline = link.next_deadline()
                 if deadline is None:
                     deadline = exchange.deadline()  # raises: the link must be timing a wait
