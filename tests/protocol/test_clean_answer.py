@@ -19,6 +19,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+from robostar.errors import PacketTooLongError
 from robostar.protocol.frame import (
     ACK,
     ETX,
@@ -269,3 +270,22 @@ def test_any_answer_in_one_step_is_what_receive_data_does(data: bytes) -> None:
             else:
                 assert events == [AnswerReceived(packet, 0x30, final=True), ExchangeComplete()]
                 assert _snapshot(fast) == _snapshot(general)
+
+
+def test_a_request_sent_again_goes_out_as_encode_packet_frames_it() -> None:
+    """The link keeps the last request's frame for a request sent again (a poll): the bytes
+    are encode_packet's, whatever came before, and a bad request is refused every time."""
+    link = HostLink()
+    now = 10.0
+    for data in (AA, AA, b"\xffAC0", AA, b"", b"", b"\xffAC0", b"\xffAC0", AA):
+        link.send_request(data, Shape.SINGLE, now)
+        assert link.data_to_send() == encode_packet(data)
+        link.abort(now)  # back to idle after the short gap
+        link.data_to_send()
+        now += 1.0
+        link.handle_timeout(now)
+        assert link.idle
+        for bad in (b"\xffA\x02", b"\xffA\x03"):
+            with pytest.raises(PacketTooLongError):
+                link.send_request(bad, Shape.SINGLE, now)
+            assert link.data_to_send() == b""

@@ -119,7 +119,8 @@ class Exchange:
             once=command.CHANGES_STATE,
             max_packets=command.MAX_PACKETS,
         )
-        self._handle(events, now)
+        if events:
+            self._handle(events, now)
 
     def output(self) -> bytes:
         """Bytes to write now."""

@@ -659,6 +659,8 @@ class HostLink(Link):
         self._maybe_answer = b""  # a read's copy taken for a resend, delivered if nothing else
         self._last_reply = b""  # FB: the controller's last reply to one of our packets
         self._aborting = False
+        self._request_data: bytes | None = None  # the last request sent, and its frame
+        self._request_frame = b""
 
     # -- application calls -----------------------------------------------------------------
     def send_request(
@@ -750,30 +752,38 @@ class HostLink(Link):
 
     # -- handlers --------------------------------------------------------------------------
     def _h_send_request(self, data: bytes) -> None:
-        self.shape = self._pending_shape
+        shape = self.shape = self._pending_shape
+        now = self._now
         self._corrupt = 0
-        self._request_at = self._now
-        self._send_once = self._pending_once or self.shape is Shape.UPLOAD
+        self._request_at = now
+        self._send_once = self._pending_once or shape is Shape.UPLOAD
         self._doubt = ""
         self._maybe_answer = b""
         self._packets = self._bytes = 0
-        if self.shape is Shape.MULTI:
-            self._max_packets = self._pending_max or MAX_MULTI_PACKETS
+        if shape is Shape.MULTI:
+            max_packets = self._pending_max or MAX_MULTI_PACKETS
         else:
-            self._max_packets = 2 if self.shape is Shape.TWO_PHASE else 1
-        if self.shape is Shape.UPLOAD:
+            max_packets = 2 if shape is Shape.TWO_PHASE else 1
+        self._max_packets = max_packets
+        timeout = self.timeout
+        if shape is Shape.UPLOAD:
             # FB's replies are never ACKed: a later copy of the answer before it is no resend.
             self._last_received = b""
             self._last_reply = b""
             self._limit_at = None  # each line is its own transmission, each with a timer
         else:
-            per_packet = self.timeout + self.resend_grace
-            self._limit_at = (
-                self._now + self.timeout * (MAX_NAKS + 1) + per_packet * self._max_packets
-            )
-        self._send_packet(data)
-        self.state = State.UPLOAD_WAIT_REPLY if self.shape is Shape.UPLOAD else State.WAIT_ANSWER
-        self._arm(self.timeout)
+            per_packet = timeout + self.resend_grace
+            self._limit_at = now + timeout * (MAX_NAKS + 1) + per_packet * max_packets
+        # _send_packet(data), the frame of a request sent again (a poll) made once
+        if data == self._request_data:
+            frame = self._request_frame
+        else:
+            frame = encode_packet(data)
+            self._request_data = data
+            self._request_frame = frame
+        self._send_frame(frame)
+        self.state = State.UPLOAD_WAIT_REPLY if shape is Shape.UPLOAD else State.WAIT_ANSWER
+        self._arm(timeout)
 
     def _arm(self, seconds: float) -> None:
         # Link._arm, then _clamp, inline: every request and every answer arms a timer.
