@@ -151,7 +151,14 @@ class AsyncClient(AsyncOperations, ClientBase):
         written = False
         clock = time.monotonic
         try:
-            await self._drain()
+            stray = transport.read_nowait()  # the drain's first read(0), without awaiting
+            if stray != b"":
+                await self._drain(stray)
+            elif out := link.data_to_send():  # what _drain writes after its reads
+                self._traced_sent(out)
+                pending = transport.write_nowait(out)
+                if pending is not None:
+                    await pending
             exchange.start(clock())
             while True:
                 out = link.data_to_send()  # exchange.output(), without the call
@@ -159,7 +166,9 @@ class AsyncClient(AsyncOperations, ClientBase):
                     written = True
                     if traced:
                         self._traced_sent(out)
-                    await transport.write(out)
+                    pending = transport.write_nowait(out)  # await transport.write(out)
+                    if pending is not None:
+                        await pending
                 if exchange.done:
                     return exchange
                 deadline = link.next_deadline()
@@ -186,11 +195,15 @@ class AsyncClient(AsyncOperations, ClientBase):
                     self._link = self._new_link()
             raise
 
-    async def _drain(self) -> None:
-        """Hand stray input to the idle link before a request (it ACKs a resent answer)."""
+    async def _drain(self, first: bytes | None = None) -> None:
+        """Hand stray input to the idle link before a request (it ACKs a resent answer).
+        ``first``: the first read(0)'s bytes when the caller has read them (None: not read)."""
         link = self._link
         for _ in range(DRAIN_READS):
-            data = await self.transport.read(0.0)
+            if first is None:
+                data = await self.transport.read(0.0)
+            else:
+                data, first = first, None
             if not data:
                 break
             self._traced_received(data)
