@@ -134,8 +134,8 @@ def decoded_at_once(command: Command[T], exchange: Exchange) -> T | _NotDecoded:
     packets = exchange.answer()
     if packets is not None:
         try:
-            return decode(command, packets)
-        except MalformedAnswerError:
+            return command.decode_answer(packets)
+        except (MalformedAnswerError, FieldError):  # decode()'s errors, before it wraps them
             pass
     return NOT_DECODED
 

@@ -160,7 +160,12 @@ class Client(SyncOperations, ClientBase):
         written = False
         clock = time.monotonic
         try:
-            self._drain()
+            stray = transport.read(0.0)  # the drain's first read
+            if stray:
+                self._drain(stray)
+            elif out := link.data_to_send():  # what _drain writes after its reads
+                self._traced_sent(out)
+                transport.write(out)
             exchange.start(clock())
             while True:
                 out = link.data_to_send()  # exchange.output(), without the call
@@ -195,11 +200,15 @@ class Client(SyncOperations, ClientBase):
                     self._link = self._new_link()
             raise
 
-    def _drain(self) -> None:
-        """Hand stray input to the idle link before a request (it ACKs a resent answer)."""
+    def _drain(self, first: bytes | None = None) -> None:
+        """Hand stray input to the idle link before a request (it ACKs a resent answer).
+        ``first``: the first read(0)'s bytes when the caller has read them (None: not read)."""
         link = self._link
         for _ in range(DRAIN_READS):
-            data = self.transport.read(0.0)
+            if first is None:
+                data = self.transport.read(0.0)
+            else:
+                data, first = first, None
             if not data:
                 break
             self._traced_received(data)

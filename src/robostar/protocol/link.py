@@ -395,9 +395,12 @@ class Link:
 
     def data_to_send(self) -> bytes:
         """Bytes to write to the line now (empty when there are none)."""
-        out = bytes(self._out)
-        self._out.clear()
         self._resend_unsent = False
+        pending = self._out
+        if not pending:
+            return b""
+        out = bytes(pending)
+        pending.clear()
         return out
 
     def next_deadline(self) -> float | None:
