@@ -404,3 +404,68 @@ def test_exchange_abort_sends_rst() -> None:
     exchange.output()
     exchange.abort(0.1)
     assert exchange.done and exchange.output() == b"\x12" and not line.host.busy
+
+
+def _answer_reads() -> list[bytes]:
+    """Reads an exchange may see: answers of every flag, damaged ones, more than a frame."""
+    from robostar.protocol.frame import encode_packet
+
+    good = encode_packet(STATUS_OK)
+    return [
+        good,
+        encode_packet(b"\xff" + STATUS_OK),
+        encode_packet(ok()),  # too short for AA: decodes as malformed
+        encode_packet(ok(b"12")),
+        encode_packet(make_answer(0x31)),
+        encode_packet(make_answer(0x32)),
+        encode_packet(make_answer(0x34)),
+        encode_packet(b"9"),
+        good[:-1] + bytes((good[-1] ^ 1,)),
+        b"\x06" + good,
+        good + b"\x06",
+        good + good,
+        good[:3],
+        b"x" + good,
+    ]
+
+
+@pytest.mark.parametrize("read", _answer_reads(), ids=lambda r: r.hex(" "))
+@pytest.mark.parametrize("with_progress", [False, True])
+def test_a_single_exchange_takes_a_clean_answer_as_the_general_path_does(
+    read: bytes, with_progress: bool
+) -> None:
+    """The one-step read of a clean answer (HostLink.receive_clean_answer) gives the same
+    outcome, bytes and progress calls as handing every read to HostLink.receive_data."""
+    runs = []
+    for one_step in (True, False):
+        seen: list[tuple[int, int | None]] = []
+
+        def progress(done: int, total: int | None, seen: list[Any] = seen) -> None:
+            seen.append((done, total))
+
+        host = HostLink(timeout=1.0)
+        exchange = Exchange(host, ReadStatus(), progress if with_progress else None)
+        exchange._single = one_step
+        exchange.start(0.0)
+        sent = [exchange.output()]
+        exchange.receive(read, 0.1)
+        sent.append(exchange.output())
+        if not exchange.done:
+            exchange.tick(5.0)
+            sent.append(exchange.output())
+        assert exchange.done
+        outcome = exchange.outcome()
+        failure = outcome.failure
+        error = failure and failure.error
+        runs.append(
+            (
+                (outcome.packets, outcome.flag, outcome.lines_sent),
+                failure and (failure.reason, failure.state, failure.detail),
+                error and (type(error), str(error)),
+                sent,
+                seen,
+                host.state,
+                host.next_deadline(),
+            )
+        )
+    assert runs[0] == runs[1]

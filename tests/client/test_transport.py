@@ -354,6 +354,88 @@ def test_async_tcp_round_trip(echo_server: tuple[str, int, list[socket.socket]])
     asyncio.run(main())
 
 
+def test_async_tcp_nowait_twins_do_what_write_and_read_0_do(
+    echo_server: tuple[str, int, list[socket.socket]],
+) -> None:
+    """write_nowait writes at once (nothing to await) or hands back what write() would do;
+    read_nowait is read(0) when it needs no awaiting, else None (then read(0) says why)."""
+    host, port, _ = echo_server
+
+    async def main() -> None:
+        transport = await open_async_transport(f"tcp://{host}:{port}")
+        assert isinstance(transport, AsyncTcpTransport)
+        assert transport.read_nowait() == b""
+        assert transport.write_nowait(AA) is None
+        assert await transport.read(1.0) == AA
+        assert transport.write_nowait(AA) is None
+        await asyncio.sleep(0.05)
+        assert transport.read_nowait() == AA  # bytes already here
+        assert transport.read_nowait() == b""
+        # A full write buffer: written, and the awaitable waits for it to drain.
+        protocol = transport._protocol
+        assert protocol is not None
+        protocol.pause_writing()
+        pending = transport.write_nowait(AA)
+        assert pending is not None
+        asyncio.get_running_loop().call_later(0.01, protocol.resume_writing)
+        await pending
+        assert await transport.read(1.0) == AA
+        # A lost line: nothing written; what is handed back raises as write() does.
+        transport.write_nowait(b"bye")
+        await asyncio.sleep(0.05)
+        assert transport.read_nowait() is None
+        with pytest.raises(PortError, match="lost"):
+            await transport.read(1.0)
+        pending = transport.write_nowait(AA)
+        assert pending is not None
+        with pytest.raises(PortError, match="not open"):
+            await pending
+        assert transport.read_nowait() is None
+
+    asyncio.run(main())
+
+
+def test_async_nowait_twins_leave_a_subclass_its_own_write_and_read(
+    echo_server: tuple[str, int, list[socket.socket]],
+) -> None:
+    host, port, _ = echo_server
+    calls: list[str] = []
+
+    class Counting(AsyncTcpTransport):
+        async def write(self, data: bytes) -> None:
+            calls.append("write")
+            await super().write(data)
+
+        async def read(self, timeout: float) -> bytes:
+            calls.append("read")
+            return await super().read(timeout)
+
+    async def main() -> None:
+        transport = Counting(host, port)
+        await transport.open()
+        assert transport.read_nowait() is None
+        pending = transport.write_nowait(AA)
+        assert pending is not None
+        await pending
+        assert await transport.read(1.0) == AA
+        await transport.close()
+
+    asyncio.run(main())
+    assert calls == ["write", "read"]
+    assert AsyncPeerTransport(CannedPeerForNowait()).read_nowait() is None
+
+
+class CannedPeerForNowait:
+    def receive_data(self, data: bytes, now: float) -> None:
+        pass
+
+    def data_to_send(self, now: float) -> bytes:
+        return b""
+
+    def next_deadline(self) -> float | None:
+        return None
+
+
 @posix_only
 def test_async_serial_round_trip_over_a_pty(pty_pair: tuple[int, str]) -> None:
     master, path = pty_pair

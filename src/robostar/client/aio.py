@@ -12,7 +12,7 @@ from typing import Any, Self, TypeVar, cast
 from robostar.client._async_face import AsyncOperations
 from robostar.client.core import DRAIN_READS, ClientBase, Settings, check_keepalive
 from robostar.client.driver import NOT_DECODED, command_plan, decoded_at_once
-from robostar.client.exchange import Exchange, Outcome, Progress
+from robostar.client.exchange import Exchange, Progress
 from robostar.client.jog import AsyncJog, jog_start
 from robostar.client.locks import AsyncPriorityLock
 from robostar.client.plan import Call, Effect, Plan, run_plan_async
@@ -123,11 +123,12 @@ class AsyncClient(AsyncOperations, ClientBase):
         try:
             if not self.transport.is_open:
                 await self._ensure_open()
-            outcome = await self._exchange(command, progress)
+            exchange = await self._exchange(command, progress)
             # the usual case, a clean answer that decodes, needs none of the rules
-            result = decoded_at_once(command, outcome)
+            result = decoded_at_once(command, exchange)
             if result is not NOT_DECODED:
                 return result
+            outcome = exchange.outcome()
             plan = command_plan(command, self._policy)
             request = next(plan)  # the rules always ask for the command first
             while True:
@@ -135,12 +136,13 @@ class AsyncClient(AsyncOperations, ClientBase):
                     request = plan.send(outcome)
                 except StopIteration as done:
                     return cast(R, done.value)
-                outcome = await self._exchange(request, progress if request is command else None)
+                exchange = await self._exchange(request, progress if request is command else None)
+                outcome = exchange.outcome()
         finally:
             lock.release()
 
     # -- the line -------------------------------------------------------------------------
-    async def _exchange(self, command: Command[Any], progress: Progress | None) -> Outcome:
+    async def _exchange(self, command: Command[Any], progress: Progress | None) -> Exchange:
         """One exchange, as one loop (the asyncio twin of Client._exchange)."""
         transport = self.transport
         traced = self._trace is not None
@@ -149,7 +151,14 @@ class AsyncClient(AsyncOperations, ClientBase):
         written = False
         clock = time.monotonic
         try:
-            await self._drain()
+            stray = transport.read_nowait()  # the drain's first read(0), without awaiting
+            if stray != b"":
+                await self._drain(stray)
+            elif out := link.data_to_send():  # what _drain writes after its reads
+                self._traced_sent(out)
+                pending = transport.write_nowait(out)
+                if pending is not None:
+                    await pending
             exchange.start(clock())
             while True:
                 out = link.data_to_send()  # exchange.output(), without the call
@@ -157,9 +166,11 @@ class AsyncClient(AsyncOperations, ClientBase):
                     written = True
                     if traced:
                         self._traced_sent(out)
-                    await transport.write(out)
+                    pending = transport.write_nowait(out)  # await transport.write(out)
+                    if pending is not None:
+                        await pending
                 if exchange.done:
-                    return exchange.outcome()
+                    return exchange
                 deadline = link.next_deadline()
                 if deadline is None:
                     deadline = exchange.deadline()  # raises: the link must be timing a wait
@@ -184,11 +195,15 @@ class AsyncClient(AsyncOperations, ClientBase):
                     self._link = self._new_link()
             raise
 
-    async def _drain(self) -> None:
-        """Hand stray input to the idle link before a request (it ACKs a resent answer)."""
+    async def _drain(self, first: bytes | None = None) -> None:
+        """Hand stray input to the idle link before a request (it ACKs a resent answer).
+        ``first``: the first read(0)'s bytes when the caller has read them (None: not read)."""
         link = self._link
         for _ in range(DRAIN_READS):
-            data = await self.transport.read(0.0)
+            if first is None:
+                data = await self.transport.read(0.0)
+            else:
+                data, first = first, None
             if not data:
                 break
             self._traced_received(data)

@@ -18,7 +18,7 @@ from collections.abc import Generator
 from dataclasses import dataclass
 from typing import Any, TypeVar, cast
 
-from robostar.client.exchange import Outcome, is_upload
+from robostar.client.exchange import Exchange, Outcome
 from robostar.commands.base import Command
 from robostar.commands.files import DownloadFile, UploadFile, parse_point_line
 from robostar.commands.system import ReadLastError
@@ -136,15 +136,16 @@ NOT_DECODED = _NotDecoded.NOT_DECODED
 """What :func:`decoded_at_once` gives when the rules must look at the outcome."""
 
 
-def decoded_at_once(command: Command[T], outcome: Outcome) -> T | _NotDecoded:
+def decoded_at_once(command: Command[T], exchange: Exchange) -> T | _NotDecoded:
     """The usual case, without the rules: the result of the first exchange of ``command``
     when it ended with an answer :func:`command_plan` would only decode (no failure, no error
-    flag, not an upload) and that decodes. Otherwise NOT_DECODED, and the clients hand the
-    same outcome to the plan, which applies its rules."""
-    if outcome.failure is None and outcome.flag is None and not is_upload(command):
+    flag, not an upload: :meth:`Exchange.answer`) and that decodes. Otherwise NOT_DECODED,
+    and the clients hand the exchange's outcome to the plan, which applies its rules."""
+    packets = exchange.answer()
+    if packets is not None:
         try:
-            return decode(command, outcome.packets)
-        except MalformedAnswerError:
+            return command.decode_answer(packets)
+        except (MalformedAnswerError, FieldError):  # decode()'s errors, before it wraps them
             pass
     return NOT_DECODED
 

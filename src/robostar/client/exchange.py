@@ -12,7 +12,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, cast
 
-from robostar.commands.base import Command, split_answer
+from robostar.commands.base import Command, Shape, split_answer
 from robostar.commands.files import DownloadFile, UploadFile
 from robostar.errors import LinkRuleError
 from robostar.protocol.fields import FLAG_FAILED, FLAG_REJECTED, FLAG_UNSUPPORTED, FileName
@@ -96,6 +96,7 @@ class Exchange:
         # Encoding checks every field; a bad one raises FieldError before anything is written.
         self.request = command.encode()
         upload, self._download = _kind(command)
+        self.upload = upload
         self._bodies = cast(UploadFile, command).upload_bodies() if upload else []
         self._next_line = 0
         self._accepted = 0
@@ -103,6 +104,8 @@ class Exchange:
         self._flag: int | None = None
         self._failure: ExchangeFailed | None = None
         self._total = len(self._bodies) if upload else None
+        # A SINGLE exchange's clean answer is taken in one step (HostLink.receive_clean_answer).
+        self._single = command.SHAPE is Shape.SINGLE
         self.done = False
 
     def start(self, now: float) -> None:
@@ -116,7 +119,8 @@ class Exchange:
             once=command.CHANGES_STATE,
             max_packets=command.MAX_PACKETS,
         )
-        self._handle(events, now)
+        if events:
+            self._handle(events, now)
 
     def output(self) -> bytes:
         """Bytes to write now."""
@@ -130,6 +134,15 @@ class Exchange:
         return deadline
 
     def receive(self, data: bytes, now: float) -> None:
+        if self._single:
+            packet = self.link.receive_clean_answer(data, now)
+            if packet is not None:
+                # What _handle does with the events receive_data would have returned
+                # (AnswerReceived with flag 0x30, then ExchangeComplete).
+                self._packets.append(packet)
+                self._answer_progress(packet)
+                self.done = True
+                return
         self._handle(self.link.receive_data(data, now), now)
 
     def tick(self, now: float) -> None:
@@ -142,6 +155,14 @@ class Exchange:
 
     def outcome(self) -> Outcome:
         return Outcome(tuple(self._packets), self._flag, self._failure, self._accepted)
+
+    def answer(self) -> tuple[bytes, ...] | None:
+        """The answer packets when the exchange ended with an answer the rules would only
+        decode (no failure, no error flag, not an upload); otherwise None (then the rules
+        look at :meth:`outcome`)."""
+        if self._failure is None and self._flag is None and not self.upload:
+            return tuple(self._packets)
+        return None
 
     # -- events ----------------------------------------------------------------------------
     def _handle(self, events: list[LinkEvent], now: float) -> None:

@@ -11,7 +11,7 @@ from typing import Any, Self, TypeVar, cast
 from robostar.client._sync_face import SyncOperations
 from robostar.client.core import DRAIN_READS, ClientBase, Settings, check_keepalive
 from robostar.client.driver import NOT_DECODED, command_plan, decoded_at_once
-from robostar.client.exchange import Exchange, Outcome, Progress
+from robostar.client.exchange import Exchange, Progress
 from robostar.client.jog import Jog, jog_start
 from robostar.client.locks import PriorityLock
 from robostar.client.plan import Call, Effect, Plan, run_plan
@@ -131,11 +131,12 @@ class Client(SyncOperations, ClientBase):
         try:
             if not self.transport.is_open:
                 self._ensure_open()
-            outcome = self._exchange(command, progress)
+            exchange = self._exchange(command, progress)
             # the usual case, a clean answer that decodes, needs none of the rules
-            result = decoded_at_once(command, outcome)
+            result = decoded_at_once(command, exchange)
             if result is not NOT_DECODED:
                 return result
+            outcome = exchange.outcome()
             plan = command_plan(command, self._policy)
             request = next(plan)  # the rules always ask for the command first
             while True:
@@ -143,12 +144,13 @@ class Client(SyncOperations, ClientBase):
                     request = plan.send(outcome)
                 except StopIteration as done:
                     return cast(R, done.value)
-                outcome = self._exchange(request, progress if request is command else None)
+                exchange = self._exchange(request, progress if request is command else None)
+                outcome = exchange.outcome()
         finally:
             lock.release()
 
     # -- the line -------------------------------------------------------------------------
-    def _exchange(self, command: Command[Any], progress: Progress | None) -> Outcome:
+    def _exchange(self, command: Command[Any], progress: Progress | None) -> Exchange:
         """One exchange, as one loop: stray input first, the request, then answers until the
         link says the exchange is over (see core.ClientBase for the rules it shares)."""
         transport = self.transport
@@ -158,7 +160,12 @@ class Client(SyncOperations, ClientBase):
         written = False
         clock = time.monotonic
         try:
-            self._drain()
+            stray = transport.read(0.0)  # the drain's first read
+            if stray:
+                self._drain(stray)
+            elif out := link.data_to_send():  # what _drain writes after its reads
+                self._traced_sent(out)
+                transport.write(out)
             exchange.start(clock())
             while True:
                 out = link.data_to_send()  # exchange.output(), without the call
@@ -168,7 +175,7 @@ class Client(SyncOperations, ClientBase):
                         self._traced_sent(out)
                     transport.write(out)
                 if exchange.done:
-                    return exchange.outcome()
+                    return exchange
                 deadline = link.next_deadline()
                 if deadline is None:
                     deadline = exchange.deadline()  # raises: the link must be timing a wait
@@ -193,11 +200,15 @@ class Client(SyncOperations, ClientBase):
                     self._link = self._new_link()
             raise
 
-    def _drain(self) -> None:
-        """Hand stray input to the idle link before a request (it ACKs a resent answer)."""
+    def _drain(self, first: bytes | None = None) -> None:
+        """Hand stray input to the idle link before a request (it ACKs a resent answer).
+        ``first``: the first read(0)'s bytes when the caller has read them (None: not read)."""
         link = self._link
         for _ in range(DRAIN_READS):
-            data = self.transport.read(0.0)
+            if first is None:
+                data = self.transport.read(0.0)
+            else:
+                data, first = first, None
             if not data:
                 break
             self._traced_received(data)

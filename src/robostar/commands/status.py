@@ -10,6 +10,7 @@ from robostar.commands.base import Command, NoParams, Shape, encode_axes, read_a
 from robostar.errors import FieldError, MalformedAnswerError
 from robostar.protocol.fields import (
     COORD_WIDTH,
+    FLAG_OK,
     Reader,
     decode_using_axes,
     encode_channel,
@@ -40,6 +41,21 @@ class ReadStatus(NoParams, Command[tuple[ChannelStatus, ChannelStatus, ChannelSt
     CODE = "AA"
 
     def decode_answer(
+        self, packets: Sequence[bytes]
+    ) -> tuple[ChannelStatus, ChannelStatus, ChannelStatus]:
+        if len(packets) == 1:
+            packet = packets[0]
+            # The usual answer, read at once: flag 0x30 (no dummy byte), three status bytes
+            # each with bit7=1 bit6=0. Anything else is read field by field, which says what
+            # is wrong; both read a good answer alike.
+            if len(packet) == 4 and packet[0] == FLAG_OK:
+                one, two, three = packet[1], packet[2], packet[3]
+                if one & 0xC0 == two & 0xC0 == three & 0xC0 == 0x80:
+                    status = ChannelStatus.from_byte
+                    return (status(one), status(two), status(three))
+        return self._decode_fields(packets)
+
+    def _decode_fields(
         self, packets: Sequence[bytes]
     ) -> tuple[ChannelStatus, ChannelStatus, ChannelStatus]:
         r = self.single(packets)

@@ -28,6 +28,7 @@ __all__ = [
     "FrameEvent",
     "Packet",
     "encode_packet",
+    "lone_frame",
     "lrc",
 ]
 
@@ -79,6 +80,29 @@ def encode_packet(data: bytes) -> bytes:
         raise PacketTooLongError("", "packet", "data may not contain STX (0x02) or ETX (0x03)")
     check = lrc(data)
     return bytes((STX, *data, ETX, check if check else ETX))
+
+
+def lone_frame(data: bytes) -> bytes | None:
+    """The packet data of ``data`` when it is exactly one whole frame with a good LRC (STX,
+    data holding neither STX nor ETX, ETX, LRC; 250 bytes at most), or None.
+
+    A shortcut for the usual read, an answer arriving whole: where this gives data,
+    :meth:`FrameDecoder.feed` between frames gives just ``[Packet(data)]`` and stays between
+    frames. Anything else (None) is for the decoder.
+    """
+    n = len(data)
+    if (
+        3 <= n <= MAX_PACKET
+        and data[0] == STX
+        and data.find(b"\x03", 1) == n - 2
+        and data.find(b"\x02", 1, n - 2) < 0
+    ):
+        packet = data[1 : n - 2]
+        got = data[n - 1]
+        want = lrc(packet)
+        if got == want or (want == 0 and got == ETX):
+            return packet
+    return None
 
 
 @dataclass(frozen=True, slots=True)
@@ -149,6 +173,12 @@ class FrameDecoder:
     def pending(self) -> int:
         """Bytes of an unfinished frame held for the next feed."""
         return len(self._buf)
+
+    @property
+    def between_frames(self) -> bool:
+        """No frame is begun: the next byte is read as a frame's start, a control byte or
+        noise."""
+        return self._state is _State.HUNT
 
     def reset(self) -> None:
         """Forget any unfinished frame (after RST, or when the line is reopened)."""

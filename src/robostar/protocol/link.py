@@ -33,6 +33,7 @@ from robostar.protocol.frame import (
     FrameEvent,
     Packet,
     encode_packet,
+    lone_frame,
 )
 from robostar.protocol.packets import Shape, split_answer
 
@@ -408,9 +409,12 @@ class Link:
 
     def data_to_send(self) -> bytes:
         """Bytes to write to the line now (empty when there are none)."""
-        out = bytes(self._out)
-        self._out.clear()
         self._resend_unsent = False
+        pending = self._out
+        if not pending:
+            return b""
+        out = bytes(pending)
+        pending.clear()
         return out
 
     def next_deadline(self) -> float | None:
@@ -675,6 +679,8 @@ class HostLink(Link):
         self._maybe_answer = b""  # a read's copy taken for a resend, delivered if nothing else
         self._last_reply = b""  # FB: the controller's last reply to one of our packets
         self._aborting = False
+        self._request_data: bytes | None = None  # the last request sent, and its frame
+        self._request_frame = b""
 
     # -- application calls -----------------------------------------------------------------
     def send_request(
@@ -701,6 +707,53 @@ class HostLink(Link):
             self._take_backlog()
         return self._take_events()
 
+    def receive_clean_answer(self, data: bytes, now: float) -> bytes | None:
+        """The usual read of a single exchange, in one step: when ``data`` is exactly one
+        whole frame with a good LRC (:func:`~robostar.protocol.frame.lone_frame`) holding an
+        OK answer (flag 0x30; not one taken for the controller resending the answer ACKed
+        last) to the SINGLE request this link waits on, with nothing held and no frame begun,
+        the link does what :meth:`receive_data` does with it (ACK it, end the exchange) and
+        returns the packet's data. The events :meth:`receive_data` would have returned are
+        then exactly ``[AnswerReceived(packet, 0x30, final=True), ExchangeComplete()]``; none
+        are made.
+
+        Otherwise it returns None and has changed nothing: give the same bytes to
+        :meth:`receive_data`, whose rules decide.
+        """
+        if (
+            self.state is not State.WAIT_ANSWER
+            or self.shape is not Shape.SINGLE
+            or type(data) is not bytes
+            or self._backlog
+            or not self.decoder.between_frames
+        ):
+            return None
+        packet = lone_frame(data)
+        if packet is None or (packet == self._last_received and self._is_resend(packet, now)):
+            return None
+        # The flag as _flag_of reads it: a leading FF is the dummy byte.
+        offset = 1 if packet[:1] == b"\xff" else 0
+        size = len(packet)
+        if (
+            size <= offset
+            or packet[offset] != FLAG_OK
+            or self._packets >= self._max_packets
+            or self._bytes + size > self._max_packets * MAX_PACKET
+        ):
+            return None
+        # _h_answer's steps for this packet, then _finish (in that order in _h_answer).
+        self._now = now
+        self._corrupt = 0
+        self._packets += 1
+        self._bytes += size
+        self._out.append(ACK)
+        self._last_received = packet
+        self._last_ack_at = now
+        self._limit_at = None
+        self._deadline = None
+        self.state = State.IDLE
+        return packet
+
     def send_upload_line(self, body: bytes, now: float) -> list[LinkEvent]:
         """FB: send one content packet (``0x30`` + body) after :class:`UploadReady`."""
         self._now = now
@@ -719,30 +772,38 @@ class HostLink(Link):
 
     # -- handlers --------------------------------------------------------------------------
     def _h_send_request(self, data: bytes) -> None:
-        self.shape = self._pending_shape
+        shape = self.shape = self._pending_shape
+        now = self._now
         self._corrupt = 0
-        self._request_at = self._now
-        self._send_once = self._pending_once or self.shape is Shape.UPLOAD
+        self._request_at = now
+        self._send_once = self._pending_once or shape is Shape.UPLOAD
         self._doubt = ""
         self._maybe_answer = b""
         self._packets = self._bytes = 0
-        if self.shape is Shape.MULTI:
-            self._max_packets = self._pending_max or MAX_MULTI_PACKETS
+        if shape is Shape.MULTI:
+            max_packets = self._pending_max or MAX_MULTI_PACKETS
         else:
-            self._max_packets = 2 if self.shape is Shape.TWO_PHASE else 1
-        if self.shape is Shape.UPLOAD:
+            max_packets = 2 if shape is Shape.TWO_PHASE else 1
+        self._max_packets = max_packets
+        timeout = self.timeout
+        if shape is Shape.UPLOAD:
             # FB's replies are never ACKed: a later copy of the answer before it is no resend.
             self._last_received = b""
             self._last_reply = b""
             self._limit_at = None  # each line is its own transmission, each with a timer
         else:
-            per_packet = self.timeout + self.resend_grace
-            self._limit_at = (
-                self._now + self.timeout * (MAX_NAKS + 1) + per_packet * self._max_packets
-            )
-        self._send_packet(data)
-        self.state = State.UPLOAD_WAIT_REPLY if self.shape is Shape.UPLOAD else State.WAIT_ANSWER
-        self._arm(self.timeout)
+            per_packet = timeout + self.resend_grace
+            self._limit_at = now + timeout * (MAX_NAKS + 1) + per_packet * max_packets
+        # _send_packet(data), the frame of a request sent again (a poll) made once
+        if data == self._request_data:
+            frame = self._request_frame
+        else:
+            frame = encode_packet(data)
+            self._request_data = data
+            self._request_frame = frame
+        self._send_frame(frame)
+        self.state = State.UPLOAD_WAIT_REPLY if shape is Shape.UPLOAD else State.WAIT_ANSWER
+        self._arm(timeout)
 
     def _arm(self, seconds: float) -> None:
         # Link._arm, then _clamp, inline: every request and every answer arms a timer.
@@ -850,8 +911,9 @@ class HostLink(Link):
         """The line is not quiet: wait the whole gap again, but not past the resync's end."""
         self._arm(max(0.0, min(self.resync_gap, self._resync_until - self._now)))
 
-    def _is_resend(self, data: bytes) -> bool:
-        """Is ``data`` the controller resending the answer we ACKed last (our ACK was lost)?"""
+    def _is_resend(self, data: bytes, now: float) -> bool:
+        """Is ``data``, arriving at ``now``, the controller resending the answer we ACKed last
+        (our ACK was lost)?"""
         if data != self._last_received:
             return False
         if self.state is State.WAIT_SECOND and len(split_answer(data).body) == 0:
@@ -859,7 +921,7 @@ class HostLink(Link):
             return False
         # The controller resends only after its own timeout: a copy sooner than that is new
         # data (a slow controller answering the same request with the same bytes).
-        if self._now - self._last_ack_at < 0.9 * self.peer_resend_after:
+        if now - self._last_ack_at < 0.9 * self.peer_resend_after:
             return False
         if self.state is State.WAIT_ANSWER:
             # The previous exchange's last answer again, late, while our request went out
@@ -875,7 +937,7 @@ class HostLink(Link):
 
     def _h_answer(self, data: bytes) -> None:
         self._corrupt = 0  # _good_packet(), inline
-        if data == self._last_received and self._is_resend(data):
+        if data == self._last_received and self._is_resend(data, self._now):
             self._ack(data)
             self._emit(Ignored("resent answer (ACKed again)", self.state))
             if self.state is State.WAIT_ANSWER and not self._send_once:

@@ -6,6 +6,7 @@ import asyncio
 import contextlib
 import socket
 from abc import abstractmethod
+from collections.abc import Awaitable
 from typing import Any
 
 import serial
@@ -104,6 +105,16 @@ class LineProtocol(asyncio.Protocol):
 class _ProtocolTransport(AsyncTransport):
     """A line driven through :class:`LineProtocol`; subclasses say how to connect."""
 
+    _own_write = True
+    _own_read = True
+    """The class's write/read are these (the nowait twins do their usual case themselves);
+    a subclass that changes them is left its own."""
+
+    def __init_subclass__(cls, **kwargs: object) -> None:
+        super().__init_subclass__(**kwargs)
+        cls._own_write = cls.write is _ProtocolTransport.write
+        cls._own_read = cls.read is _ProtocolTransport.read
+
     def __init__(self) -> None:
         self._transport: asyncio.BaseTransport | None = None
         self._protocol: LineProtocol | None = None
@@ -146,12 +157,43 @@ class _ProtocolTransport(AsyncTransport):
         except (OSError, serial.SerialException) as exc:
             raise await self._lost(exc) from exc
         if protocol.paused:
-            drained = protocol.drained
-            if drained is None:
-                drained = protocol.drained = asyncio.get_running_loop().create_future()
-            await drained
-            if protocol.lost:
-                raise await self._lost(protocol.lost_reason)
+            await self._drain_written(protocol)
+
+    def write_nowait(self, data: bytes) -> Awaitable[None] | None:
+        # write()'s usual case without its coroutine: an open line taking the bytes into a
+        # write buffer below its high-water mark. Anything else is write() itself (nothing
+        # written yet) or its tail (written: wait for the buffer to drain, or report the loss).
+        transport, protocol = self._transport, self._protocol
+        if not self._own_write or transport is None or protocol is None or protocol.lost:
+            return self.write(data)
+        try:
+            transport.write(data)  # type: ignore[attr-defined]
+        except (OSError, serial.SerialException) as exc:
+            return self._write_failed(exc)
+        if protocol.paused:
+            return self._drain_written(protocol)
+        return None
+
+    async def _write_failed(self, exc: BaseException) -> None:
+        raise await self._lost(exc) from exc
+
+    async def _drain_written(self, protocol: LineProtocol) -> None:
+        drained = protocol.drained
+        if drained is None:
+            drained = protocol.drained = asyncio.get_running_loop().create_future()
+        await drained
+        if protocol.lost:
+            raise await self._lost(protocol.lost_reason)
+
+    def read_nowait(self) -> bytes | None:
+        protocol = self._protocol
+        if not self._own_read or protocol is None or protocol.lost:
+            return None  # read() says what is wrong
+        if protocol.buffer:
+            data = bytes(protocol.buffer)
+            protocol.buffer.clear()
+            return data
+        return b""
 
     async def read(self, timeout: float) -> bytes:
         protocol = self._protocol

@@ -9,6 +9,7 @@ opened again, which is how a client reconnects.
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from collections.abc import Awaitable
 from types import TracebackType
 from typing import Self
 
@@ -90,6 +91,18 @@ class AsyncTransport(ABC):
     @abstractmethod
     async def read(self, timeout: float) -> bytes:
         """Bytes that arrived within ``timeout`` seconds (``0``: only those already here)."""
+
+    def write_nowait(self, data: bytes) -> Awaitable[None] | None:
+        """Start :meth:`write`: None when ``data`` is written whole with nothing to await,
+        else an awaitable that does the rest (or all) of the write; await it. (By default,
+        :meth:`write` itself: a transport that can hand bytes over without waiting saves a
+        coroutine per write.)"""
+        return self.write(data)
+
+    def read_nowait(self) -> bytes | None:
+        """``read(0)`` when it needs no awaiting: the bytes already here (empty if none); None
+        when the caller must await ``read(0)`` instead (the default)."""
+        return None
 
     def _closed_error(self) -> PortError:
         return PortError(f"{self.url}: the port is not open")
