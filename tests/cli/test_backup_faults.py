@@ -192,6 +192,24 @@ def test_restore_interrupted_is_still_a_keyboard_interrupt(
     assert caught.value.state.in_doubt == "ch2/DEMO.JOB"
 
 
+def test_ctrl_c_between_two_files_leaves_none_in_doubt(tmp_path: Path) -> None:
+    folder = tmp_path / "bk"
+
+    def interrupt(done: int, total: int | None) -> None:
+        if done == 2:  # ch1/DEMO.JOB written and read back the same
+            raise KeyboardInterrupt
+
+    with Client("sim://?speedup=50") as client:
+        client.backup(folder)
+        _change_every_job(folder)
+        with pytest.raises(backup.RestoreInterrupted) as caught:
+            client.restore(folder, progress=interrupt)
+    state = caught.value.state
+    assert state.verified == ("ch1/DEMO.JOB",) and state.in_doubt == ""
+    assert state.untouched == ("ch2/DEMO.JOB",)
+    assert "in doubt: none; not touched: ch2/DEMO.JOB" in str(caught.value)
+
+
 # -- the manifest records the target ---------------------------------------------------------
 
 

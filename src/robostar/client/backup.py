@@ -435,7 +435,8 @@ class RestoreState:
     """Where a restore that stopped part-way left the controller (files as ``ch<N>/<NAME>``).
 
     ``verified``: written and read back the same; ``deleted``: deleted as asked; ``in_doubt``:
-    the file being written, read back or deleted when it stopped, and ``why``; ``untouched``:
+    the file being written, read back or deleted when it stopped, and ``why`` ("" for both when
+    it stopped between two files); ``untouched``:
     the writes and deletions it did not reach. Running the restore again finishes it: its
     preflight writes only what still differs.
     """
@@ -459,9 +460,8 @@ class RestoreState:
         )
         if self.deleted:
             text += f"deleted: {names(self.deleted)}; "
-        return text + (
-            f"in doubt: {self.in_doubt} ({self.why}); not touched: {names(self.untouched)}"
-        )
+        doubt = f"{self.in_doubt} ({self.why})" if self.in_doubt else "none"
+        return text + f"in doubt: {doubt}; not touched: {names(self.untouched)}"
 
     hint = (
         "Run the same restore again: its preflight compares every file and writes only what "
@@ -474,8 +474,8 @@ class RestoreState:
             "half_restored": True,
             "verified": list(self.verified),
             "deleted": list(self.deleted),
-            "in_doubt": self.in_doubt,
-            "why": self.why,
+            "in_doubt": self.in_doubt or None,
+            "why": self.why or None,
             "not_touched": list(self.untouched),
             "hint": self.hint,
         }
@@ -690,7 +690,7 @@ def _write_phase(
 
     def state(doubt: str, why: str) -> RestoreState:
         pending = [_relative(u.channel, u.file) for u in writes] + list(deletes)
-        touched = {*verified, *deleted, doubt}
+        touched = {*verified, *deleted, doubt}  # doubt is "" between files
         return RestoreState(
             str(root),
             tuple(verified),
@@ -700,54 +700,48 @@ def _write_phase(
             tuple(p for p in pending if p not in touched),
         )
 
-    for upload in writes:
-        relative = _relative(upload.channel, upload.file)
-        lines[0], lines[1] = 0, len(upload.lines)
-        step = "FB"
-        try:
+    doubt, step, name = "", "", ""  # the file being worked on, its step (FB, FA, FE)
+    try:
+        for upload in writes:
+            doubt, step, name = _relative(upload.channel, upload.file), "FB", str(upload.file)
+            lines[0], lines[1] = 0, len(upload.lines)
             yield from call(upload, fed)
+            step = "FA"
             done += 1
             _report(progress, done, total)
-            step = "FA"
             content = yield from call(DownloadFile(upload.channel, upload.file, CoordSystem.ANGLE))
             if not _same(upload, content):
                 raise UploadIncompleteError(
-                    f"restore: {relative} read back from the controller differs from the backup"
+                    f"restore: {doubt} read back from the controller differs from the backup"
                 )
-        except KeyboardInterrupt as exc:
-            if step == "FB":
-                why = (
-                    f"FB {upload.file} aborted after {lines[0]}/{lines[1]} lines; "
-                    "the file on the controller may be missing or old"
-                )
-            else:
-                why = "written, but interrupted while it was read back (FA); not verified"
-            raise RestoreInterrupted(state(relative, why)) from exc
-        except RobostarError as exc:
-            if step == "FB":
-                why = (
-                    f"its upload (FB) failed: {exc}; "
-                    "the file on the controller may be missing or old"
-                )
-            else:
-                why = f"written, but not verified: {exc}"
-            raise RestoreIncompleteError(state(relative, why)) from exc
-        verified.append(relative)
-        done += 1
-        _report(progress, done, total)
-    for relative in deletes:
-        channel, name = relative.split("/", 1)
-        try:
-            yield from call(DeleteFile(int(channel[2:]), FileName.parse(name)))
-        except KeyboardInterrupt as exc:
-            why = "interrupted while it was deleted (FE); it may or may not be deleted"
-            raise RestoreInterrupted(state(relative, why)) from exc
-        except RobostarError as exc:
-            why = f"its deletion (FE) failed: {exc}"
-            raise RestoreIncompleteError(state(relative, why)) from exc
-        deleted.append(relative)
-        done += 1
-        _report(progress, done, total)
+            verified.append(doubt)
+            doubt = step = ""
+            done += 1
+            _report(progress, done, total)
+        for relative in deletes:
+            doubt, step = relative, "FE"
+            channel, file = relative.split("/", 1)
+            yield from call(DeleteFile(int(channel[2:]), FileName.parse(file)))
+            deleted.append(relative)
+            doubt = step = ""
+            done += 1
+            _report(progress, done, total)
+    except KeyboardInterrupt as exc:
+        why = {
+            "FB": f"FB {name} aborted after {lines[0]}/{lines[1]} lines; "
+            "the file on the controller may be missing or old",
+            "FA": "written, but interrupted while it was read back (FA); not verified",
+            "FE": "interrupted while it was deleted (FE); it may or may not be deleted",
+        }.get(step, "")
+        raise RestoreInterrupted(state(doubt, why)) from exc
+    except RobostarError as exc:
+        why = {
+            "FB": f"its upload (FB) failed: {exc}; the file on the controller may be missing "
+            "or old",
+            "FA": f"written, but not verified: {exc}",
+            "FE": f"its deletion (FE) failed: {exc}",
+        }.get(step, str(exc))
+        raise RestoreIncompleteError(state(doubt, why)) from exc
 
 
 def _preflight(
