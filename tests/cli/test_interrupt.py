@@ -145,3 +145,32 @@ def test_ctrl_c_during_a_backup_says_the_previous_one_is_intact(
     said = " ".join(result.stderr.split())
     assert "the backup was not finished and nothing of it was kept" in said, said
     assert list(tmp_path.iterdir()) == [tmp_path / "bk"] or not list(tmp_path.iterdir())
+
+
+@pytest.fixture
+def paced_line() -> Iterator[str]:
+    """A served simulator behind a 2400-baud line: an upload of 100 lines takes seconds."""
+    from robostar.sim import SimConfig, VirtualController
+    from robostar.sim.server import PeerHost, SimLines
+
+    controller = VirtualController(SimConfig(speedup=50))
+    host = PeerHost(SimLines(controller, baud=2400), name="paced-interrupt-test")
+    address = host.listen_tcp("127.0.0.1", 0)
+    host.start()
+    try:
+        yield f"tcp://{address[0]}:{address[1]}"
+    finally:
+        host.close()
+
+
+def test_a_real_ctrl_c_during_an_upload(terminal: Any, paced_line: str, tmp_path: Any) -> None:
+    job = tmp_path / "BIG.JOB"
+    job.write_text("MAIN\n" + "MOVJ P1 V=50\n" * 98 + "EOP\n")  # 100 lines
+    term = terminal("--port", paced_line, "files", "put", str(job))
+    term.wait_for(lambda text: "uploading BIG.JOB" in text and "/100" in text, timeout=30)
+    term.process.send_signal(signal.SIGINT)
+    code = term.wait_exit()
+    said = " ".join(term.text().split())
+    assert code == 130, said
+    assert "Interrupted: FB BIG.JOB aborted after " in said, said
+    assert "/100 lines; the file on the controller may be missing or old." in said

@@ -3,7 +3,7 @@
 Exit codes (documented in docs/cli.md):
 
 - 0: done;
-- 2: a bad argument (nothing was sent);
+- 2: a bad argument (nothing was sent), or a local file that cannot be written (a backup);
 - 3: the controller refused the command (the KD reason is shown when it gave one), or did not
   carry it out (an alarm, or the robot did not stop in time);
 - 4: the line failed (no answer, RST, NAK storm, port trouble, an answer that breaks the protocol);

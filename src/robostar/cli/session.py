@@ -174,8 +174,9 @@ class Session:
         if port:
             # Every JSON result and error says what it came from; a served simulator found
             # by _identify turns "simulator" to true.
-            self.out.extra["simulator"] = is_simulator(port) or self._served_simulator
-            self.out.extra["url"] = port
+            known = self.out.extra.get("simulator") is True  # `demo` runs its own simulator
+            self.out.extra["simulator"] = known or is_simulator(port) or self._served_simulator
+            self.out.extra.setdefault("url", port)
         if self._profile is not None:
             self.out.extra["robot"] = self._profile.name
 
