@@ -8,6 +8,7 @@ temporary folder left by a killed backup does not block the next one.
 
 from __future__ import annotations
 
+import errno
 import hashlib
 import json
 import os
@@ -275,6 +276,29 @@ def test_a_backup_that_cannot_be_written_is_not_called_a_cable_fault(tmp_path: P
     after = {p.relative_to(folder): p.read_bytes() for p in folder.rglob("*") if p.is_file()}
     assert after == before
     assert [p.name for p in tmp_path.iterdir()] == ["bk"]  # no temporary folder left
+
+
+@pytest.mark.parametrize(
+    ("error", "code", "words"),
+    [
+        (OSError(errno.ENOSPC, "No space left on device", "/data/x"), 2, "local file /data/x"),
+        (OSError(errno.EACCES, "Permission denied"), 2, "local file"),
+        (OSError(errno.EIO, "Input/output error"), 4, "The port failed"),
+    ],
+)
+def test_only_port_errors_are_called_port_errors(
+    run: Run, monkeypatch: pytest.MonkeyPatch, error: OSError, code: int, words: str
+) -> None:
+    from robostar.cli.session import Session
+
+    def send(self: Session, command: Any) -> Any:
+        raise error
+
+    monkeypatch.setattr(Session, "send", send)
+    result = run("files", "rm", "OLD.JOB")
+    assert result.exit_code == code
+    assert words in result.stderr
+    assert ("cable" in result.stderr) is (code == 4)
 
 
 # -- --keep ----------------------------------------------------------------------------------
