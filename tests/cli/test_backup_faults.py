@@ -277,6 +277,33 @@ def test_a_backup_that_cannot_be_written_is_not_called_a_cable_fault(tmp_path: P
     assert after == before
     assert [p.name for p in tmp_path.iterdir()] == ["bk"]  # no temporary folder left
 
+    generations = tmp_path / "gens"
+    with Client("sim://?speedup=50") as client:
+        client.backup(generations, keep=2)
+    (first,) = list(generations.iterdir())
+    done = subprocess.run(
+        [
+            sys.executable,
+            "-c",
+            _FULL_DISK,
+            "--port",
+            "sim://",
+            "backup",
+            str(generations),
+            "--keep",
+            "2",
+        ],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=120,
+        check=False,
+    )
+    said = " ".join(done.stderr.split())
+    assert done.returncode == 2, said
+    assert "the previous backups in the folder are intact" in said
+    assert list(generations.iterdir()) == [first]
+
 
 @pytest.mark.parametrize(
     ("error", "code", "words"),

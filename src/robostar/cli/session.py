@@ -109,6 +109,7 @@ class Session:
         self.frames_sent = 0
         """Frames this run wrote to the line: error messages never claim nothing was sent."""
         self.changes_sent = 0
+        """Requests this run sent that change the controller (CHANGES_STATE)."""
         self.alarms_left: tuple[Alarm, ...] = ()
         self._shared = False
         self._served_simulator = False

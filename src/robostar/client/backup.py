@@ -188,13 +188,8 @@ class BackupWriteError(RobostarError, OSError):
         super().__init__(message)
 
 
-def _write_failed(target: Path, exc: OSError, replaced: bool) -> BackupWriteError:
+def _write_failed(target: Path, exc: OSError, kept: str) -> BackupWriteError:
     where = f" ({exc.filename})" if exc.filename else ""
-    kept = (
-        "the previous backup is intact"
-        if replaced
-        else "no backup was replaced and nothing half-written is left"
-    )
     return BackupWriteError(
         f"cannot write the backup at {str(target)!r}: {exc.strerror or exc}{where}; {kept}",
         str(target),
@@ -342,13 +337,18 @@ def backup_plan(
         work.chmod(0o755)  # mkdtemp makes it private; a backup folder is an ordinary folder
     except OSError as exc:
         raise UsageError(f"folder: cannot create {str(root)!r}: {exc}") from exc
-    replaced = final.exists()
+    if keep is not None:
+        kept = "the previous backups in the folder are intact"
+    elif final.exists():
+        kept = "the previous backup is intact"
+    else:
+        kept = "there was no backup there to replace, and nothing half-written is left"
     try:
-        manifest = yield from _download_all(work, progress, target, final, replaced)
+        manifest = yield from _download_all(work, progress, target, final, kept)
         try:
             _swap_into_place(work, final)
         except OSError as exc:
-            raise _write_failed(final, exc, replaced) from exc
+            raise _write_failed(final, exc, kept) from exc
     except BaseException:
         shutil.rmtree(work, ignore_errors=True)
         raise
@@ -361,7 +361,7 @@ def backup_plan(
 
 
 def _download_all(
-    work: Path, progress: Progress | None, target: str | None, final: Path, replaced: bool
+    work: Path, progress: Progress | None, target: str | None, final: Path, kept: str
 ) -> Plan[Manifest]:
     info = yield from call(ReadInfo())
     listing = []
@@ -385,7 +385,7 @@ def _download_all(
             path.parent.mkdir(exist_ok=True)
             path.write_bytes(data)
         except OSError as exc:
-            raise _write_failed(final, exc, replaced) from exc
+            raise _write_failed(final, exc, kept) from exc
         digest = hashlib.sha256(data).hexdigest()
         files.append(
             BackupFile(
@@ -406,7 +406,7 @@ def _download_all(
     try:
         (work / MANIFEST).write_text(manifest.to_json(), encoding="utf-8")
     except OSError as exc:
-        raise _write_failed(final, exc, replaced) from exc
+        raise _write_failed(final, exc, kept) from exc
     return manifest
 
 
