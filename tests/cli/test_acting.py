@@ -145,7 +145,14 @@ def test_job_lifecycle(on: Run, as_json: AsJson) -> None:
 
 def test_io_set(on: Run, as_json: AsJson, sim_line: Any) -> None:
     data = as_json(on("--json", "io", "set", "0", "3", "on"))
-    assert data == {"ok": True, "port": 0, "contact": 3, "on": True, "simulator": True}
+    assert data == {
+        "ok": True,
+        "port": 0,
+        "contact": 3,
+        "on": True,
+        "simulator": True,
+        "url": sim_line.url,
+    }
     assert as_json(on("--json", "io", "out", "0"))["on"] == [3]
     assert "Output 0.3 is off." in on("io", "set", "0", "3", "off").stdout
     sim_line.set_input(0, 15, True)

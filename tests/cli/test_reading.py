@@ -8,6 +8,8 @@ from typing import Any
 import pytest
 from click.testing import Result
 
+from .conftest import SIM
+
 Run = Callable[..., Result]
 AsJson = Callable[[Result], Any]
 
@@ -33,9 +35,13 @@ def test_info(run: Run, as_json: AsJson) -> None:
 
 
 def test_alarms_and_history(run: Run, as_json: AsJson) -> None:
-    assert as_json(run("--json", "alarms")) == {"alarms": [], "simulator": True}
+    assert as_json(run("--json", "alarms")) == {"alarms": [], "simulator": True, "url": SIM}
     assert "No alarms." in run("alarms").stdout
-    assert as_json(run("--json", "alarms", "--history")) == {"history": [], "simulator": True}
+    assert as_json(run("--json", "alarms", "--history")) == {
+        "history": [],
+        "simulator": True,
+        "url": SIM,
+    }
     assert "empty" in run("alarms", "--history").stdout
 
 
@@ -64,7 +70,14 @@ def test_speed_and_job(run: Run, as_json: AsJson) -> None:
     assert speed["percent"] == speed["speed"] / 10
     assert "% of Mv" in run("speed").stdout
     job = as_json(run("--json", "job"))
-    assert job == {"channel": 1, "job": None, "step": 0, "running": False, "simulator": True}
+    assert job == {
+        "channel": 1,
+        "job": None,
+        "step": 0,
+        "running": False,
+        "simulator": True,
+        "url": SIM,
+    }
     assert "(none selected)" in run("job").stdout
 
 
@@ -79,6 +92,7 @@ def test_io_reads(run: Run, as_json: AsJson) -> None:
         "input_boards": 1,
         "output_boards": 1,
         "simulator": True,
+        "url": SIM,
     }
     assert "1 input, 1 output" in run("io", "boards").stdout
 
@@ -89,6 +103,7 @@ def test_globals_read(run: Run, as_json: AsJson) -> None:
         "index": 5,
         "value": 0,
         "simulator": True,
+        "url": SIM,
     }
     assert as_json(run("--json", "global", "get", "float", "499"))["value"] == 0.0
     point = as_json(run("--json", "global", "get", "point", "1023", "--xy"))
@@ -114,6 +129,7 @@ def test_ref_axis_read(run: Run, as_json: AsJson) -> None:
         "channel": 1,
         "reference_axis": 1,
         "simulator": True,
+        "url": SIM,
     }
     assert "reference axis: 1 (X)" in run("ref-axis").stdout
 

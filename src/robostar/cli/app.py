@@ -6,8 +6,10 @@ pattern), so ``robostar decode`` starts without loading the client or the simula
 
 from __future__ import annotations
 
+import errno
 import importlib
 import json
+import sys
 from collections.abc import Sequence
 from typing import Any
 
@@ -118,6 +120,7 @@ class RobostarGroup(click.Group):
             except KeyboardInterrupt:
                 session = ctx.find_object(Session)
                 if session is not None:
+                    session.interrupt_note = session.interrupt_note or session.interrupted_during()
                     session.stop_started_motion()
                 raise
             finally:
@@ -130,7 +133,7 @@ class RobostarGroup(click.Group):
             session = ctx.find_object(Session)
             if session is None or not session.out.json:
                 raise
-            _json_usage_error(error, session.frames_sent, session.changes_sent)
+            _json_usage_error(error, session.frames_sent, session.changes_sent, session.out.extra)
             ctx.exit(EXIT_BAD_ARGUMENT)
         except RobostarError as error:
             session = ctx.find_object(Session)
@@ -142,29 +145,75 @@ class RobostarGroup(click.Group):
                 failure = with_alarms_left(failure, session.alarms_left)
             out.failure(failure)
             ctx.exit(failure.exit_code)
-        except KeyboardInterrupt:
+        except KeyboardInterrupt as interrupt:
             session = ctx.find_object(Session)
             out = session.out if session else Output(False)
-            stopped = session.stopped_on_interrupt if session else ""
-            text = f"Interrupted; {stopped}." if stopped else "Interrupted."
-            out.failure(Failure(EXIT_INTERRUPTED, text, "", "KeyboardInterrupt"))
+            out.failure(_interrupted(interrupt, session))
             ctx.exit(EXIT_INTERRUPTED)
         except OSError as error:
-            # A port that fails mid-run without the client wrapping it: still a line failure.
             session = ctx.find_object(Session)
             out = session.out if session else Output(False)
+            if _is_local(error):
+                # A file on this computer (disk full, no permission): not the line's fault.
+                where = f" {error.filename}" if error.filename else ""
+                text = f"Cannot use the local file{where}: {error.strerror or error}."
+                hint = "Free space on that disk or check its permissions; the line is not at fault."
+                out.failure(Failure(EXIT_BAD_ARGUMENT, text, hint, type(error).__name__))
+                ctx.exit(EXIT_BAD_ARGUMENT)
+            # A port that fails mid-run without the client wrapping it: still a line failure.
             text = f"The port failed: {error}."
             hint = "Check the cable and --port; `robostar doctor` checks the line."
             out.failure(Failure(EXIT_LINE, text, hint, type(error).__name__))
             ctx.exit(EXIT_LINE)
 
 
-def _json_usage_error(error: click.UsageError, frames_sent: int = 0, changes_sent: int = 0) -> None:
-    """A usage error as the JSON error object every --json failure prints (on stderr)."""
+_LOCAL_ERRNOS = frozenset(
+    getattr(errno, name)
+    for name in ("ENOSPC", "EDQUOT", "EFBIG", "EROFS", "EACCES", "EPERM", "EISDIR", "ENOTDIR")
+    if hasattr(errno, name)
+)
+
+
+def _is_local(error: OSError) -> bool:
+    """An error of a file on this computer rather than of the port."""
+    return error.filename is not None or error.errno in _LOCAL_ERRNOS
+
+
+def _interrupted(interrupt: KeyboardInterrupt, session: Session | None) -> Failure:
+    """Ctrl-C as the console says it: what was on the line, what was stopped; for a restore,
+    which files are written, in doubt and not touched."""
+    backup = sys.modules.get("robostar.client.backup")  # loaded if a restore was running
+    stopped = session.stopped_on_interrupt if session else ""
+    if backup is not None and isinstance(interrupt, backup.RestoreInterrupted):
+        state = interrupt.state
+        text = f"Interrupted: {state.describe()}."
+        return Failure(
+            EXIT_INTERRUPTED, text, state.hint, "KeyboardInterrupt", restore=state.as_json()
+        )
+    during = session.interrupt_note if session else ""
+    if during and stopped:
+        text = f"Interrupted: {during}; {stopped}."
+    elif during:
+        text = f"Interrupted: {during}."
+    elif stopped:
+        text = f"Interrupted; {stopped}."
+    else:
+        text = "Interrupted."
+    return Failure(EXIT_INTERRUPTED, text, "", "KeyboardInterrupt")
+
+
+def _json_usage_error(
+    error: click.UsageError,
+    frames_sent: int = 0,
+    changes_sent: int = 0,
+    extra: dict[str, Any] | None = None,
+) -> None:
+    """A usage error as the JSON error object every --json failure prints (on stderr), with
+    the keys every result carries (``simulator``, ``url``) once the target is known."""
     command = error.ctx.command_path if error.ctx is not None else None
     usage = explain(UsageError(error.format_message()), "", frames_sent, changes_sent)
     failure = Failure(EXIT_BAD_ARGUMENT, usage.message, usage.hint, "UsageError", command)
-    click.echo(json.dumps(failure.as_json(), ensure_ascii=False), err=True)
+    click.echo(json.dumps({**failure.as_json(), **(extra or {})}, ensure_ascii=False), err=True)
 
 
 @click.group(cls=RobostarGroup, context_settings={"help_option_names": ["-h", "--help"]})

@@ -299,6 +299,7 @@ def demo(session: Session, speedup: float, pause: float, fast: bool) -> None:
         speedup, pause = max(speedup, 50.0), 0.0
     out = session.out
     out.extra["simulator"] = True
+    out.extra["url"] = "sim://"  # its own simulator, whatever --port says
     port = session.settings.port
     if port is not None and port != "sim://":
         out.note(f"The demo runs on its own simulator; {port} is not touched.")

@@ -3,7 +3,7 @@
 Exit codes (documented in docs/cli.md):
 
 - 0: done;
-- 2: a bad argument (nothing was sent);
+- 2: a bad argument (nothing was sent), or a local file that cannot be written (a backup);
 - 3: the controller refused the command (the KD reason is shown when it gave one), or did not
   carry it out (an alarm, or the robot did not stop in time);
 - 4: the line failed (no answer, RST, NAK storm, port trouble, an answer that breaks the protocol);
@@ -13,8 +13,10 @@ Exit codes (documented in docs/cli.md):
 from __future__ import annotations
 
 import re
-from collections.abc import Sequence
+import sys
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 from robostar.errors import (
     ControllerError,
@@ -34,6 +36,9 @@ from robostar.errors import (
     UsageError,
 )
 from robostar.types import Alarm
+
+if TYPE_CHECKING:  # the console explains its first errors without loading the client
+    from robostar.client.backup import RestoreState
 
 __all__ = [
     "EXIT_BAD_ARGUMENT",
@@ -73,20 +78,23 @@ class Failure:
     """Protocol codes and the raw reason: shown below the sentence, never as the headline."""
     alarms: tuple[str, ...] = ()
     """Alarms a refused command left on the controller (Run Fail), read with AB after it."""
+    restore: Mapping[str, object] | None = None
+    """A restore that stopped part-way: what is written, in doubt and not touched."""
 
     def as_json(self) -> dict[str, object]:
-        return {
-            "error": {
-                "type": self.kind,
-                "exit_code": self.exit_code,
-                "message": self.message,
-                "hint": self.hint,
-                "command": self.command,
-                "reason": self.reason,
-                "detail": self.detail or None,
-                "alarms_left": list(self.alarms),
-            }
+        error: dict[str, object] = {
+            "type": self.kind,
+            "exit_code": self.exit_code,
+            "message": self.message,
+            "hint": self.hint,
+            "command": self.command,
+            "reason": self.reason,
+            "detail": self.detail or None,
+            "alarms_left": list(self.alarms),
         }
+        if self.restore is not None:
+            error["restore"] = dict(self.restore)
+        return {"error": error}
 
 
 def _sentence(text: str) -> str:
@@ -108,6 +116,16 @@ def explain(
     of its requests change the controller (so no message claims that nothing was sent when
     something was)."""
     kind = type(error).__name__
+    backup = sys.modules.get("robostar.client.backup")  # loaded if the error can come from it
+    if backup is not None and isinstance(error, backup.RestoreIncompleteError):
+        return _half_restored(error, error.state, kind, port)
+    if backup is not None and isinstance(error, backup.BackupWriteError):
+        message = _sentence(str(error))
+        hint = (
+            "Only reads were sent; nothing on the controller changed. Free space on that disk or "
+            "give a folder you can write to."
+        )
+        return Failure(EXIT_BAD_ARGUMENT, message, hint, kind)
     if isinstance(error, UsageError):
         return _usage(error, kind, frames_sent, changes_sent)
     if isinstance(error, ControllerError):
@@ -115,6 +133,31 @@ def explain(
     if isinstance(error, LineError | ProtocolError):
         return _line(error, kind, port)
     return _client_logic(error, kind, port)
+
+
+def _half_restored(error: RobostarError, state: RestoreState, kind: str, port: str) -> Failure:
+    """A restore that failed part-way: its state first, then what stopped it (with that
+    error's exit code: 3 a refusal, 4 the line)."""
+    cause = error.__cause__
+    inner = explain(cause, port) if isinstance(cause, RobostarError) else None
+    message = _sentence(state.describe())
+    if inner is None:
+        return Failure(EXIT_LINE, message, state.hint, kind, restore=state.as_json())
+    # The line's own hint ("upload the file again") is what running the restore again does.
+    own = inner.hint and not isinstance(cause, UploadIncompleteError)
+    hint = (
+        f"{state.hint} Before that: {inner.hint[0].lower()}{inner.hint[1:]}" if own else state.hint
+    )
+    return Failure(
+        inner.exit_code,
+        message,
+        hint,
+        kind,
+        inner.command,
+        inner.reason,
+        inner.detail,
+        restore=state.as_json(),
+    )
 
 
 def _client_logic(error: RobostarError, kind: str, port: str) -> Failure:

@@ -281,6 +281,7 @@ def files_put(session: Session, source: str, name: str | None, number: int | Non
             PlannedFrame(encode_packet(b"\x34"), "FB end"),
         ]
         session.plan(planned, note="The JOB number is the file's own unless --number is given.")
+    session.upload_total = len(lines)  # for the message if Ctrl-C cuts the upload short
     with _progress(session, f"uploading {file}") as progress:
         if file.is_job:
             session.client.upload_job(
@@ -363,7 +364,10 @@ def _manifest_view(title: str, manifest: Any, folder: str) -> RenderableType:
             str(entry.get("bytes", "")),
             str(entry.get("sha256", ""))[:16],
         )
-    return Group(table, Text(f"{len(entries)} file(s); manifest in {folder}", style="green"))
+    return Group(
+        table,
+        Text(f"{len(entries)} file(s) and their manifest; the backup is in {folder}", "green"),
+    )
 
 
 @click.command()
@@ -391,11 +395,19 @@ def backup(session: Session, folder: str, keep: int | None) -> None:
     """
     if session.dry_run:
         session.plan([ListFiles(1, "*")], note="Then FA for every file listed, on every channel.")
-    with _progress(session, "backup") as progress:
-        manifest = session.client.backup(folder, progress=progress, keep=keep)
+    try:
+        with _progress(session, "backup") as progress:
+            manifest = session.client.backup(folder, progress=progress, keep=keep)
+    except KeyboardInterrupt:
+        session.interrupt_note = (
+            f"the backup was not finished and nothing of it was kept; what {folder} held "
+            "before is intact (a backup only reads the controller)"
+        )
+        raise
+    path = manifest.folder or folder
     session.out.result(
-        {"ok": True, "folder": folder, "keep": keep, "manifest": jsonable(manifest)},
-        lambda: _manifest_view("Backup", manifest, folder),
+        {"ok": True, "folder": folder, "path": path, "keep": keep, "manifest": jsonable(manifest)},
+        lambda: _manifest_view("Backup", manifest, path),
     )
 
 

@@ -99,7 +99,8 @@ class Output:
 
     def __init__(self, json_mode: bool):
         self.json = json_mode
-        # Keys every JSON result carries (``"simulator": true``, the profile's name).
+        # Keys every JSON result and error carries: ``"simulator": true|false`` and ``"url"``
+        # once the target is known, the profile's name.
         self.extra: dict[str, Any] = {}
         # Consoles resolve sys.stdout/sys.stderr when they print, so a test runner that swaps
         # the streams sees the output.
@@ -128,9 +129,11 @@ class Output:
         self.err.print(Text(text, style="bold yellow"))
 
     def failure(self, failure: Failure) -> None:
-        """An error: a JSON object on stderr, or the sentence and its hint."""
+        """An error: a JSON object on stderr (with the keys every result carries, such as
+        ``"simulator"``), or the sentence and its hint."""
         if self.json:
-            click.echo(json.dumps(failure.as_json(), ensure_ascii=False), err=True)
+            data = {**failure.as_json(), **jsonable(self.extra)}
+            click.echo(json.dumps(data, ensure_ascii=False), err=True)
             return
         self.err.print(Text("Error: ", style="bold red") + Text(failure.message))
         if failure.hint:

@@ -109,14 +109,21 @@ class Session:
         self.frames_sent = 0
         """Frames this run wrote to the line: error messages never claim nothing was sent."""
         self.changes_sent = 0
+        """Requests this run sent that change the controller (CHANGES_STATE)."""
         self.alarms_left: tuple[Alarm, ...] = ()
         self._shared = False
         self._served_simulator = False
         self._child: Session | None = None
         self._motion: tuple[str, int] | None = None
+        self._stop_sent: str | None = None
+        """The stop (BG, CI, CD, CF) this run sent after the motion it started, if any."""
+        self._in_flight: _InFlight | None = None
+        self.upload_total: int | None = None
+        """How many lines the upload in progress has (set by the command that knows)."""
         self.stopped_on_interrupt = ""
         """What Ctrl-C stopped (a motion this run started), for the message."""
-        """Requests this run sent that change the controller (CHANGES_STATE)."""
+        self.interrupt_note = ""
+        """What Ctrl-C cut short (set by the command, or from the request on the line)."""
 
     @property
     def profile(self) -> Profile | None:
@@ -165,8 +172,12 @@ class Session:
 
     def _mark_output(self) -> None:
         port = self.settings.port or (self._profile.port if self._profile else None)
-        if port and is_simulator(port):
-            self.out.extra["simulator"] = True
+        if port:
+            # Every JSON result and error says what it came from; a served simulator found
+            # by _identify turns "simulator" to true.
+            known = self.out.extra.get("simulator") is True  # `demo` runs its own simulator
+            self.out.extra["simulator"] = known or is_simulator(port) or self._served_simulator
+            self.out.extra.setdefault("url", port)
         if self._profile is not None:
             self.out.extra["robot"] = self._profile.name
 
@@ -216,15 +227,20 @@ class Session:
             if self.settings.trace:
                 self._trace_file = _open_trace(self.settings.trace)
             options["trace"] = self._on_frame
-            shown = self.simulator or self._profile is not None or describe_url(port) != port
-            if shown:
-                self._banner()
-            client = Client(port, **options)
+            maybe_served = _maybe_served_simulator(port) and not is_simulator(port)
+            if not maybe_served:
+                self._banner()  # SIMULATOR or controller, before anything is sent
+            try:
+                client = Client(port, **options)
+            except BaseException:
+                if maybe_served and (self._profile is not None or describe_url(port) != port):
+                    self._banner()  # the target the error's URL does not spell out
+                raise
             self._client = client
-            if _maybe_served_simulator(port):
+            if maybe_served:
+                # The banner waits for the answer: a served simulator must not pass for a robot.
                 self._identify(client)
-                if self._served_simulator:
-                    self._banner()
+                self._banner()
         return self._client
 
     def _banner(self) -> None:
@@ -244,6 +260,8 @@ class Session:
             return  # the command itself will meet and report the trouble
         finally:
             self.frames_sent = counted
+        # The built-in simulator's default identity ends in -SIM; a simulator configured with
+        # another name and version cannot be told from a robot over tcp:// or a pty.
         if info.name.upper().endswith("-SIM") or info.version.upper().endswith("-SIM"):
             self._served_simulator = True
             self.out.extra["simulator"] = True
@@ -285,6 +303,19 @@ class Session:
         if self._motion is None or self._client is None:
             return
         code, channel = self._motion
+        words = {
+            "CI": f"stopped the homing of channel {channel} (CI)",
+            "CD": f"stopped the job of channel {channel} (CD)",
+            "BG": f"stopped the jog of channel {channel} (BG)",
+            "CF": f"stopped the move of channel {channel} with an emergency stop (CF): "
+            "clear its alarm with `robostar reset`",
+        }
+        if self._stop_sent is not None:
+            # The command stopped it on its way out (a jog sends BG when it ends).
+            self.stopped_on_interrupt = words[self._stop_sent].replace(
+                f"({self._stop_sent})", f"({self._stop_sent} sent)"
+            )
+            return
         from robostar.commands.control import EmergencyStop, StopHoming, StopJob
         from robostar.commands.motion import JogStop
         from robostar.commands.status import ReadStatus
@@ -305,14 +336,26 @@ class Session:
         except (RobostarError, KeyboardInterrupt):
             self.stopped_on_interrupt = f"could not stop the {code} motion: check the robot"
             return
-        words = {
-            "CI": f"stopped the homing of channel {channel} (CI)",
-            "CD": f"stopped the job of channel {channel} (CD)",
-            "BG": f"stopped the jog of channel {channel} (BG)",
-            "CF": f"stopped the move of channel {channel} with an emergency stop (CF): "
-            "clear its alarm with `robostar reset`",
-        }
         self.stopped_on_interrupt = words[stop]
+
+    def interrupted_during(self) -> str:
+        """After Ctrl-C: the request that was on the line and what is known of it ("" when
+        none was): an upload cut short, a state change whose outcome is unknown, a read."""
+        flight = self._in_flight
+        if flight is None or flight.done:
+            return ""
+        if flight.code == "FB":
+            of = f"/{self.upload_total}" if self.upload_total is not None else ""
+            name = f" {flight.file}" if flight.file else ""
+            return (
+                f"FB{name} aborted after {flight.lines}{of} lines; "
+                "the file on the controller may be missing or old"
+            )
+        if _changes_state(flight.code):
+            return f"the outcome of {flight.code} is unknown; check it (`robostar status`)"
+        if self._motion is not None:
+            return ""  # a read while a motion runs: the stop says what matters
+        return f"{flight.code} (a read) was cut short; it changes nothing on the controller"
 
     def end_line(self) -> None:
         """A shell line's session is done: its frames are no longer counted there."""
@@ -321,15 +364,58 @@ class Session:
     def _on_frame(self, record: TraceRecord) -> None:
         if self._child is not None:
             self._child._on_frame(record)
+        self._follow(record)
         if record.direction == "tx":
             self.frames_sent += 1
             if record.kind == "request" and _changes_state(record.command):
                 self.changes_sent += 1
             if record.kind == "request" and record.command in _STOPS:
                 channel = (record.fields or {}).get("channel", self.channel)
+                self._stop_sent = None
                 self._motion = (record.command, int(channel))
+            elif (
+                record.kind == "request"
+                and self._motion is not None
+                and record.command == _STOPS[self._motion[0]]
+            ):
+                self._stop_sent = record.command
         if self._trace_file is not None:
             self._trace_file.write(record.to_json() + "\n")
+
+    def _follow(self, record: TraceRecord) -> None:
+        """Keep track of the request on the line, for the message after Ctrl-C."""
+        if record.direction == "tx" and record.kind == "request" and record.command:
+            fields = record.fields or {}
+            file = fields.get("file")
+            self._in_flight = _InFlight(record.command, str(file) if file else "")
+            return
+        flight = self._in_flight
+        if flight is None or flight.done or record.command != flight.code:
+            return
+        if record.direction == "tx":
+            if record.kind == "upload line":
+                flight.line_pending = True
+            elif record.kind == "upload end":
+                flight.ended = True
+            return
+        if record.kind != "answer":
+            return
+        flag = record.flag or ""
+        if flag in ("0x31", "0x32", "0x33", "0x34"):
+            flight.done = True
+            return
+        shape = _shape(flight.code)
+        if shape == "upload":
+            if flight.ended:
+                flight.done = True
+            elif flight.line_pending:
+                flight.lines += 1
+                flight.line_pending = False
+        elif shape == "two-phase":
+            flight.answers += 1
+            flight.done = flight.answers >= 2
+        elif shape != "multi":
+            flight.done = True
 
     def close(self) -> None:
         try:
@@ -371,6 +457,27 @@ class Session:
         """Say what is about to move, before it does (not in a dry run, where nothing moves)."""
         if not self.dry_run:
             self.out.warn(text)
+
+
+@dataclass(slots=True)
+class _InFlight:
+    """The request on the line, as the wire trace shows it."""
+
+    code: str
+    file: str = ""
+    lines: int = 0
+    """FB lines the controller accepted."""
+    line_pending: bool = False
+    ended: bool = False
+    answers: int = 0
+    done: bool = False
+
+
+def _shape(code: str) -> str:
+    from robostar.commands import COMMANDS
+
+    classes = COMMANDS.get(code, ())
+    return classes[0].SHAPE.value if classes else "single"
 
 
 _STOPS = {"BA": "CI", "CC": "CD", "BE": "BG", "BF": "BG", "BB": "CF", "BC": "CF", "BD": "CF"}

@@ -10,7 +10,10 @@ and swapped into place only when complete, so an interrupted backup leaves the p
 intact; a non-empty folder that is not a robostar backup is refused. A restore first validates
 the whole manifest (names, kinds, channels, paths inside the backup), then reads every file,
 then reads the target (identity, file list, contents) and writes nothing if any check fails;
-only then does it upload what is new or changed and read each upload back.
+only then does it upload what is new or changed, reading each upload back before the next. A
+restore that fails or is interrupted after that point says so (RestoreIncompleteError,
+RestoreInterrupted): which files are written and verified, which is in doubt, which were not
+touched.
 """
 
 from __future__ import annotations
@@ -19,10 +22,12 @@ import fnmatch
 import hashlib
 import json
 import os
+import re
 import shutil
 import tempfile
+import time
 from collections.abc import Callable, Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from datetime import UTC, datetime
 from pathlib import Path
 
@@ -32,15 +37,19 @@ from robostar.client.files import NAME_RULE, download_job, download_points, poin
 from robostar.client.plan import Plan, call
 from robostar.commands.files import DeleteFile, DownloadFile, ListFiles, UploadFile
 from robostar.commands.status import ReadInfo
-from robostar.errors import FieldError, UploadIncompleteError, UsageError
+from robostar.errors import FieldError, RobostarError, UploadIncompleteError, UsageError
 from robostar.protocol.fields import FileName
 from robostar.types import ChannelInfo, ControllerInfo, CoordSystem, JobFile, PointFile, RobotType
 
 __all__ = [
     "MANIFEST",
     "BackupFile",
+    "BackupWriteError",
     "Manifest",
     "RestoreDiff",
+    "RestoreIncompleteError",
+    "RestoreInterrupted",
+    "RestoreState",
     "backup_plan",
     "restore_plan",
     "validate_manifest",
@@ -67,11 +76,20 @@ class BackupFile:
 
 @dataclass(frozen=True, slots=True)
 class Manifest:
-    """What a backup holds: when, from which controller, and every file."""
+    """What a backup holds: when, from which controller, and every file.
+
+    ``target`` is the URL the backup was read from and ``simulator`` whether that was a
+    simulator (None in a manifest written before they were recorded, or when it is not
+    known). ``folder`` is where this backup is on disk (set by backup and restore, not
+    written to the manifest).
+    """
 
     created: str
     controller: ControllerInfo
     files: tuple[BackupFile, ...]
+    target: str | None = None
+    simulator: bool | None = None
+    folder: str | None = field(default=None, compare=False)
 
     def to_json(self) -> str:
         info = self.controller
@@ -79,6 +97,8 @@ class Manifest:
             "format": FORMAT,
             "version": VERSION,
             "created": self.created,
+            "target": self.target,
+            "simulator": self.simulator,
             "controller": {
                 "name": info.name,
                 "version": info.version,
@@ -120,7 +140,14 @@ class Manifest:
                 int(ctrl["max_channels"]), str(ctrl["name"]), str(ctrl["version"]), channels
             )
             files = tuple(BackupFile(**f) for f in data["files"])
-            return cls(str(data["created"]), info, files)
+            # Manifests written before target and simulator were recorded have neither.
+            target = data.get("target")
+            simulator = data.get("simulator")
+            if target is not None and not isinstance(target, str):
+                raise ValueError(f"target {target!r} is not text")
+            if simulator is not None and not isinstance(simulator, bool):
+                raise ValueError(f"simulator {simulator!r} is not true or false")
+            return cls(str(data["created"]), info, files, target, simulator)
         except (ValueError, KeyError, TypeError, AttributeError) as exc:
             raise UsageError(
                 f"folder: {MANIFEST} is not a robostar backup manifest: {exc}"
@@ -152,6 +179,23 @@ def _report(progress: Progress | None, done: int, total: int) -> None:
         progress(done, total)
 
 
+class BackupWriteError(RobostarError, OSError):
+    """The backup could not be written on this computer (disk full, no permission): the
+    previous backup is intact; ``path`` is where it was being written."""
+
+    def __init__(self, message: str, path: str) -> None:
+        self.path = path
+        super().__init__(message)
+
+
+def _write_failed(target: Path, exc: OSError, kept: str) -> BackupWriteError:
+    where = f" ({exc.filename})" if exc.filename else ""
+    return BackupWriteError(
+        f"cannot write the backup at {str(target)!r}: {exc.strerror or exc}{where}; {kept}",
+        str(target),
+    )
+
+
 def is_backup(folder: Path) -> bool:
     """Does ``folder`` hold a robostar backup (a manifest this module wrote)?"""
     try:
@@ -159,6 +203,19 @@ def is_backup(folder: Path) -> bool:
     except (OSError, ValueError):
         return False
     return isinstance(data, dict) and data.get("format") == FORMAT
+
+
+_GENERATION_WORK = re.compile(r"\.backup-\d{8}T\d{12}Z\.[a-z0-9_]{8}\.(?:part|old)")
+"""The temporary folders this module makes in a --keep folder (mkdtemp's 8 random characters)."""
+
+STALE_AFTER = 3600.0
+"""A temporary folder of this module untouched for this long (seconds) was left by a backup
+that was killed; a later backup removes it."""
+
+
+def _work_pattern(target_name: str) -> re.Pattern[str]:
+    """The temporary folders this module makes beside a backup named ``target_name``."""
+    return re.compile(rf"\.{re.escape(target_name)}\.[a-z0-9_]{{8}}\.(?:part|old)")
 
 
 def _check_target(root: Path, keep: int | None) -> None:
@@ -175,7 +232,11 @@ def _check_target(root: Path, keep: int | None) -> None:
     if isinstance(keep, bool) or not isinstance(keep, int) or keep < 1:
         raise UsageError(f"keep: must be a whole number 1 or more, not {keep!r}")
     if root.is_dir():
-        strays = [p.name for p in root.iterdir() if not _is_generation(p)]
+        strays = [
+            p.name
+            for p in root.iterdir()
+            if not _is_generation(p) and not _GENERATION_WORK.fullmatch(p.name)
+        ]
         if strays:
             raise UsageError(
                 f"folder: {str(root)!r} holds {strays[0]!r}, which is not a backup generation; "
@@ -187,42 +248,121 @@ def _is_generation(path: Path) -> bool:
     return path.is_dir() and path.name.startswith("backup-") and is_backup(path)
 
 
+def _newest_change(path: Path) -> float:
+    """The latest modification time of ``path`` or anything in it (0 if it cannot be read)."""
+    try:
+        newest = path.lstat().st_mtime
+        for item in path.rglob("*"):
+            newest = max(newest, item.lstat().st_mtime)
+    except OSError:
+        return 0.0
+    return newest
+
+
+def _remove_stale_work(folder: Path, pattern: re.Pattern[str], started: float) -> None:
+    """Remove temporary folders of this module that a killed backup left in ``folder``: only
+    folders named as this module names them, and only those nothing touched for STALE_AFTER
+    seconds before this run started (a backup still running elsewhere keeps its own)."""
+    try:
+        entries = list(folder.iterdir())
+    except OSError:
+        return
+    for entry in entries:
+        if not pattern.fullmatch(entry.name) or entry.is_symlink() or not entry.is_dir():
+            continue
+        if _newest_change(entry) < started - STALE_AFTER:
+            shutil.rmtree(entry, ignore_errors=True)
+
+
+def _created(path: Path) -> tuple[float, float, str]:
+    """How new a generation is: its manifest's ``created`` time, then the folder's mtime."""
+    try:
+        mtime = path.stat().st_mtime
+    except OSError:
+        mtime = 0.0
+    try:
+        data = json.loads((path / MANIFEST).read_text(encoding="utf-8"))
+        created = datetime.fromisoformat(str(data["created"])).timestamp()
+    except (OSError, ValueError, KeyError, TypeError):
+        created = mtime
+    return created, mtime, path.name
+
+
+def _prune(root: Path, new: Path, keep: int) -> None:
+    """Keep ``new`` (the backup just written) and the newest ``keep - 1`` other generations,
+    newest by their manifests' ``created`` time (whatever their folder names say)."""
+    others = [p for p in root.iterdir() if _is_generation(p) and p.name != new.name]
+    others.sort(key=_created, reverse=True)
+    for old in others[keep - 1 :]:
+        shutil.rmtree(old, ignore_errors=True)
+
+
 def _stamp() -> str:
     return datetime.now(UTC).strftime("backup-%Y%m%dT%H%M%S%fZ")
 
 
+def _is_simulator(target: str | None, info: ControllerInfo) -> bool | None:
+    """A simulator: a sim:// target, or a controller whose AD identity says so (the built-in
+    simulator's default name and version end in -SIM); None when neither is known."""
+    if target is not None and target.strip().lower().startswith("sim:"):
+        return True
+    if info.name.upper().endswith("-SIM") or info.version.upper().endswith("-SIM"):
+        return True
+    return False if target is not None else None
+
+
 def backup_plan(
-    folder: str | os.PathLike[str], progress: Progress | None, keep: int | None = None
+    folder: str | os.PathLike[str],
+    progress: Progress | None,
+    keep: int | None = None,
+    *,
+    target: str | None = None,
 ) -> Plan[Manifest]:
     """Download every file of every defined channel into ``folder``; ``progress`` per file.
 
     Without ``keep`` the backup is ``folder`` itself (a previous backup there is replaced only
     once the new one is complete). With ``keep=N``, ``folder`` holds timestamped generations
-    ``backup-<UTC time>`` and only the newest N are kept.
+    ``backup-<UTC time>``: the new one is always kept, with the N-1 newest others (by the time
+    in their manifests). ``target`` (the client's URL) is recorded in the manifest. A file that
+    cannot be written here raises :class:`BackupWriteError` (the previous backup is intact).
+    The returned manifest's ``folder`` is where the new backup is.
     """
     root = _folder(folder)
     _check_target(root, keep)
-    target = root / _stamp() if keep is not None else root
+    started = time.time()
+    final = root / _stamp() if keep is not None else root
     try:
-        target.parent.mkdir(parents=True, exist_ok=True)
-        work = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".part", dir=target.parent))
+        final.parent.mkdir(parents=True, exist_ok=True)
+        work = Path(tempfile.mkdtemp(prefix=f".{final.name}.", suffix=".part", dir=final.parent))
         work.chmod(0o755)  # mkdtemp makes it private; a backup folder is an ordinary folder
     except OSError as exc:
         raise UsageError(f"folder: cannot create {str(root)!r}: {exc}") from exc
+    if keep is not None:
+        kept = "the previous backups in the folder are intact"
+    elif final.exists():
+        kept = "the previous backup is intact"
+    else:
+        kept = "there was no backup there to replace, and nothing half-written is left"
     try:
-        manifest = yield from _download_all(work, progress)
-        _swap_into_place(work, target)
+        manifest = yield from _download_all(work, progress, target, final, kept)
+        try:
+            _swap_into_place(work, final)
+        except OSError as exc:
+            raise _write_failed(final, exc, kept) from exc
     except BaseException:
         shutil.rmtree(work, ignore_errors=True)
         raise
     if keep is not None:
-        generations = sorted(p for p in root.iterdir() if _is_generation(p))
-        for old in generations[:-keep]:
-            shutil.rmtree(old, ignore_errors=True)
-    return manifest
+        _prune(root, final, keep)
+        _remove_stale_work(root, _GENERATION_WORK, started)
+    else:
+        _remove_stale_work(final.parent, _work_pattern(final.name), started)
+    return replace(manifest, folder=str(final))
 
 
-def _download_all(work: Path, progress: Progress | None) -> Plan[Manifest]:
+def _download_all(
+    work: Path, progress: Progress | None, target: str | None, final: Path, kept: str
+) -> Plan[Manifest]:
     info = yield from call(ReadInfo())
     listing = []
     for channel in info.channels[: info.max_channels]:
@@ -241,8 +381,11 @@ def _download_all(work: Path, progress: Progress | None) -> Plan[Manifest]:
         data = _text(lines)
         relative = _relative(channel_number, name)
         path = work / relative
-        path.parent.mkdir(exist_ok=True)
-        path.write_bytes(data)
+        try:
+            path.parent.mkdir(exist_ok=True)
+            path.write_bytes(data)
+        except OSError as exc:
+            raise _write_failed(final, exc, kept) from exc
         digest = hashlib.sha256(data).hexdigest()
         files.append(
             BackupFile(
@@ -258,9 +401,12 @@ def _download_all(work: Path, progress: Progress | None) -> Plan[Manifest]:
         )
         _report(progress, done, len(listing))
     created = datetime.now(UTC).isoformat(timespec="seconds")
-    manifest = Manifest(created, info, tuple(files))
+    manifest = Manifest(created, info, tuple(files), target, _is_simulator(target, info))
     # The manifest goes last: a folder without one is never taken for a complete backup.
-    (work / MANIFEST).write_text(manifest.to_json(), encoding="utf-8")
+    try:
+        (work / MANIFEST).write_text(manifest.to_json(), encoding="utf-8")
+    except OSError as exc:
+        raise _write_failed(final, exc, kept) from exc
     return manifest
 
 
@@ -282,6 +428,76 @@ def _swap_into_place(work: Path, target: Path) -> None:
 
 
 # -- restore ----------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, slots=True)
+class RestoreState:
+    """Where a restore that stopped part-way left the controller (files as ``ch<N>/<NAME>``).
+
+    ``verified``: written and read back the same; ``deleted``: deleted as asked; ``in_doubt``:
+    the file being written, read back or deleted when it stopped, and ``why`` ("" for both when
+    it stopped between two files); ``untouched``:
+    the writes and deletions it did not reach. Running the restore again finishes it: its
+    preflight writes only what still differs.
+    """
+
+    folder: str
+    verified: tuple[str, ...]
+    deleted: tuple[str, ...]
+    in_doubt: str
+    why: str
+    untouched: tuple[str, ...]
+
+    def describe(self) -> str:
+        """The state in words, for a person."""
+
+        def names(items: tuple[str, ...]) -> str:
+            return ", ".join(items) if items else "none"
+
+        text = (
+            f"the restore of {self.folder!r} stopped part-way and the controller is "
+            f"half-restored: written and verified: {names(self.verified)}; "
+        )
+        if self.deleted:
+            text += f"deleted: {names(self.deleted)}; "
+        doubt = f"{self.in_doubt} ({self.why})" if self.in_doubt else "none"
+        return text + f"in doubt: {doubt}; not touched: {names(self.untouched)}"
+
+    hint = (
+        "Run the same restore again: its preflight compares every file and writes only what "
+        "still differs."
+    )
+
+    def as_json(self) -> dict[str, object]:
+        return {
+            "folder": self.folder,
+            "half_restored": True,
+            "verified": list(self.verified),
+            "deleted": list(self.deleted),
+            "in_doubt": self.in_doubt or None,
+            "why": self.why or None,
+            "not_touched": list(self.untouched),
+            "hint": self.hint,
+        }
+
+
+class RestoreIncompleteError(RobostarError):
+    """A restore failed part-way through its writes: the controller is half-restored.
+    ``state`` says what was written and verified, what is in doubt and what was not touched;
+    ``__cause__`` is the error that stopped it."""
+
+    def __init__(self, state: RestoreState) -> None:
+        self.state = state
+        super().__init__(f"{state.describe()}. {state.hint}")
+
+
+class RestoreInterrupted(KeyboardInterrupt):
+    """Ctrl-C (KeyboardInterrupt) during a restore's writes, with the same ``state`` as
+    :class:`RestoreIncompleteError`: still a KeyboardInterrupt for whoever catches one."""
+
+    def __init__(self, state: RestoreState) -> None:
+        self.state = state
+        super().__init__(f"{state.describe()}. {state.hint}")
 
 
 @dataclass(frozen=True, slots=True)
@@ -410,7 +626,12 @@ def restore_plan(
     fails, or ``confirm(diff)`` says no, or ``dry_run``, nothing is written (``confirm`` sees
     the diff in a dry run as well, and its answer is then ignored). ``channels`` and
     ``only`` (a name pattern such as ``"*.PNT"``) choose files; ``progress(done, total)``
-    counts the writes then the read-backs.
+    counts the writes and the read-backs (each file is read back before the next is written),
+    then the deletions.
+
+    Once writing has begun, a failure raises :class:`RestoreIncompleteError` and Ctrl-C
+    :class:`RestoreInterrupted` (a KeyboardInterrupt), both with a :class:`RestoreState`:
+    the controller is half-restored, and running the restore again finishes it.
     """
     root = _folder(folder)
     try:
@@ -448,27 +669,79 @@ def restore_plan(
     if dry_run or not agreed:
         return manifest
     writes = [u for u in uploads if _relative(u.channel, u.file) in set(diff.new + diff.changed)]
-    total = len(writes) * 2 + len(diff.delete)
+    yield from _write_phase(root, writes, diff.delete, progress)
+    return replace(manifest, folder=str(root))
+
+
+def _write_phase(
+    root: Path, writes: Sequence[UploadFile], deletes: Sequence[str], progress: Progress | None
+) -> Plan[None]:
+    """Upload each file and read it back before the next one, then delete: a failure or an
+    interrupt part-way raises RestoreIncompleteError or RestoreInterrupted saying which files
+    are written and verified, which one is in doubt and which were not touched."""
+    total = len(writes) * 2 + len(deletes)
     done = 0
-    for upload in writes:
-        yield from call(upload)
-        done += 1
-        _report(progress, done, total)
-    for relative in diff.delete:
-        channel, name = relative.split("/", 1)
-        yield from call(DeleteFile(int(channel[2:]), FileName.parse(name)))
-        done += 1
-        _report(progress, done, total)
-    for upload in writes:
-        content = yield from call(DownloadFile(upload.channel, upload.file, CoordSystem.ANGLE))
-        if not _same(upload, content):
-            raise UploadIncompleteError(
-                f"restore: {_relative(upload.channel, upload.file)} read back"
-                " from the controller differs from the backup"
-            )
-        done += 1
-        _report(progress, done, total)
-    return manifest
+    verified: list[str] = []
+    deleted: list[str] = []
+    lines = [0, 0]  # FB lines the controller accepted, of how many
+
+    def fed(count: int, of: int | None) -> None:
+        lines[0], lines[1] = count, of or 0
+
+    def state(doubt: str, why: str) -> RestoreState:
+        pending = [_relative(u.channel, u.file) for u in writes] + list(deletes)
+        touched = {*verified, *deleted, doubt}  # doubt is "" between files
+        return RestoreState(
+            str(root),
+            tuple(verified),
+            tuple(deleted),
+            doubt,
+            why,
+            tuple(p for p in pending if p not in touched),
+        )
+
+    doubt, step, name = "", "", ""  # the file being worked on, its step (FB, FA, FE)
+    try:
+        for upload in writes:
+            doubt, step, name = _relative(upload.channel, upload.file), "FB", str(upload.file)
+            lines[0], lines[1] = 0, len(upload.lines)
+            yield from call(upload, fed)
+            step = "FA"
+            done += 1
+            _report(progress, done, total)
+            content = yield from call(DownloadFile(upload.channel, upload.file, CoordSystem.ANGLE))
+            if not _same(upload, content):
+                raise UploadIncompleteError(
+                    f"restore: {doubt} read back from the controller differs from the backup"
+                )
+            verified.append(doubt)
+            doubt = step = ""
+            done += 1
+            _report(progress, done, total)
+        for relative in deletes:
+            doubt, step = relative, "FE"
+            channel, file = relative.split("/", 1)
+            yield from call(DeleteFile(int(channel[2:]), FileName.parse(file)))
+            deleted.append(relative)
+            doubt = step = ""
+            done += 1
+            _report(progress, done, total)
+    except KeyboardInterrupt as exc:
+        why = {
+            "FB": f"FB {name} aborted after {lines[0]}/{lines[1]} lines; "
+            "the file on the controller may be missing or old",
+            "FA": "written, but interrupted while it was read back (FA); not verified",
+            "FE": "interrupted while it was deleted (FE); it may or may not be deleted",
+        }.get(step, "")
+        raise RestoreInterrupted(state(doubt, why)) from exc
+    except RobostarError as exc:
+        why = {
+            "FB": f"its upload (FB) failed: {exc}; the file on the controller may be missing "
+            "or old",
+            "FA": f"written, but not verified: {exc}",
+            "FE": f"its deletion (FE) failed: {exc}",
+        }.get(step, str(exc))
+        raise RestoreIncompleteError(state(doubt, why)) from exc
 
 
 def _preflight(

@@ -452,7 +452,8 @@ class Operations(PlanHelpers):
     ) -> Plan[Manifest]:
         """Save every JOB and PNT file of every channel to ``folder``, with manifest.json
         (swapped into place only when complete; ``keep=N``: timestamped generations)."""
-        return (yield from backup_plan(folder, progress, keep))
+        target = getattr(self, "url", None)  # the client's URL, recorded in the manifest
+        return (yield from backup_plan(folder, progress, keep, target=target))
 
     @operation
     def restore(
