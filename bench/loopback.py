@@ -15,14 +15,22 @@ Every round runs each contender for a fixed time, in an order that rotates from 
 round; the figures are medians over rounds, and each ratio is the median of the per-round
 ratios against the floor of the same round, so a noisy neighbour weighs on both alike. Client
 CPU is this process's user + system time; server CPU is read from the server process.
+
+On Linux with two CPUs or more, the clients (this process) run on one CPU and every server on
+another: where the scheduler puts two processes that wake each other decides the rate more
+than either's code (one round may run both on one core, the next on two, and the rate halves
+or doubles), so each contender gets the same placement. ``pin=False`` leaves it to the
+scheduler.
 """
 
 from __future__ import annotations
 
 import asyncio
+import contextlib
+import os
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from typing import Any
 
@@ -102,7 +110,28 @@ async def _async_robostar_loop(client: AsyncClient, what: str, seconds: float) -
     return done
 
 
-def run(*, seconds: float = 1.5, rounds: int = 7) -> tuple[dict[str, Any], list[Row]]:
+@contextlib.contextmanager
+def _placed(pin: bool, servers: list[ServerProcess]) -> Iterator[str]:
+    """Clients on the first CPU this process may use, servers on the second (see above)."""
+    allowed = sorted(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else []
+    if not pin or len(allowed) < 2:
+        yield "left to the scheduler"
+        return
+    client_cpu, server_cpu = allowed[0], allowed[1]
+    for server in servers:
+        # every thread: a process's affinity is its threads', and the servers' have started
+        for task in os.listdir(f"/proc/{server.pid}/task"):
+            os.sched_setaffinity(int(task), {server_cpu})
+    os.sched_setaffinity(0, {client_cpu})
+    try:
+        yield f"clients on CPU {client_cpu}, servers on CPU {server_cpu}"
+    finally:
+        os.sched_setaffinity(0, set(allowed))
+
+
+def run(
+    *, seconds: float = 1.5, rounds: int = 7, pin: bool = True
+) -> tuple[dict[str, Any], list[Row]]:
     samples: dict[str, list[_Sample]] = {}
     with (
         ServerProcess([sys.executable, "-m", "bench.floor"]) as floor_server,
@@ -112,6 +141,7 @@ def run(*, seconds: float = 1.5, rounds: int = 7) -> tuple[dict[str, Any], list[
         ServerProcess(sim_command(count=2), ready_lines=2) as sim,
         ServerProcess([sys.executable, "-m", "bench.floor", "canned"]) as canned,
         ServerProcess([sys.executable, "-m", "bench.floor", "modbus"]) as mb_canned,
+        _placed(pin, [floor_server, modbus_server, sim, canned, mb_canned]) as placement,
         asyncio.Runner() as runner,
     ):
         floor_sock = floor.connect(floor_server.lines[0])
@@ -187,7 +217,9 @@ def run(*, seconds: float = 1.5, rounds: int = 7) -> tuple[dict[str, Any], list[
             runner.run(ours_async.close())
             canned_sync.close()
             runner.run(canned_async.close())
-    return _report(samples, seconds, rounds)
+    results, rows = _report(samples, seconds, rounds)
+    results["placement"] = placement
+    return results, rows
 
 
 def _report(
@@ -234,4 +266,53 @@ def _report(
     mb = results["contenders"]["pymodbus sync"]["rate"]
     for name in ("robostar sync AA", "robostar async AA"):
         results["contenders"][name]["vs_pymodbus_sync"] = results["contenders"][name]["rate"] / mb
+    rows += _against_pymodbus(samples, results)
     return results, rows
+
+
+PYMODBUS_TARGETS = {"sync": 1.0, "async": 1.2}
+"""Issue #18: robostar ÷ pymodbus exchange rate, each against its minimal canned responder."""
+
+
+def _against_pymodbus(samples: dict[str, list[_Sample]], results: dict[str, Any]) -> list[Row]:
+    """Issue #18's figures: each a median of per-round ratios (a round measures both)."""
+    rows = []
+    for kind, target in PYMODBUS_TARGETS.items():
+        ours = samples[f"robostar {kind} AA, canned"]
+        theirs = samples[f"pymodbus {kind}, canned"]
+        pairs = list(zip(ours, theirs, strict=True))
+        rate = median(a.rate / b.rate for a, b in pairs)
+        cpu = median(a.cpu_us / b.cpu_us for a, b in pairs)
+        results[f"vs_pymodbus_{kind}"] = {"rate": rate, "client_cpu": cpu}
+        rows.append(
+            Row(
+                "2 loopback",
+                f"robostar ÷ pymodbus {kind}, canned: rate",
+                f"{rate:.2f}×",
+                f"≥ {target:.1f}×",
+                rate >= target,
+            )
+        )
+        rows.append(
+            Row(
+                "2 loopback",
+                f"robostar ÷ pymodbus {kind}, canned: client CPU",
+                f"{cpu:.2f}×",
+                "< 1.0×",
+                cpu < 1.0,
+            )
+        )
+    sim = samples["robostar sync AA"]
+    server = samples["pymodbus sync"]
+    ratio = median(a.server_us / b.server_us for a, b in zip(sim, server, strict=True))
+    results["sim_vs_pymodbus_server"] = ratio
+    rows.append(
+        Row(
+            "2 loopback",
+            "simulator CPU per AA ÷ pymodbus server per request",
+            f"{ratio:.2f}×",
+            "≤ 1.0×",
+            ratio <= 1.0,
+        )
+    )
+    return rows
