@@ -34,7 +34,8 @@ class Scripted:
         host, port = self.listener.getsockname()[:2]
         self.address = f"tcp://{host}:{port}"
         self.stray_sent = threading.Event()
-        threading.Thread(target=self._serve, daemon=True).start()
+        self.thread = threading.Thread(target=self._serve, daemon=True)
+        self.thread.start()
 
     def _serve(self) -> None:
         conn, _ = self.listener.accept()
@@ -52,6 +53,13 @@ class Scripted:
                 if answered == 1 and self.received.endswith(ACK) and not self.stray_sent.is_set():
                     conn.sendall(self.stray)
                     self.stray_sent.set()
+
+    def everything_received(self) -> bytes:
+        """All the client wrote, once it has closed the connection (the last ACK may still be
+        on its way when the client returns)."""
+        self.thread.join(5.0)
+        assert not self.thread.is_alive()
+        return bytes(self.received)
 
     def close(self) -> None:
         self.listener.close()
@@ -79,7 +87,7 @@ def test_the_blocking_client_drains_stray_input_first(server: tuple[Scripted, by
         client.status()
         _wait_for_stray(scripted)
         client.status()
-    assert bytes(scripted.received) == REQUEST + ACK + reply + REQUEST + ACK
+    assert scripted.everything_received() == REQUEST + ACK + reply + REQUEST + ACK
 
 
 def test_the_asyncio_client_drains_stray_input_first(server: tuple[Scripted, bytes]) -> None:
@@ -92,4 +100,4 @@ def test_the_asyncio_client_drains_stray_input_first(server: tuple[Scripted, byt
             await client.status()
 
     asyncio.run(main())
-    assert bytes(scripted.received) == REQUEST + ACK + reply + REQUEST + ACK
+    assert scripted.everything_received() == REQUEST + ACK + reply + REQUEST + ACK
