@@ -45,6 +45,7 @@ __all__ = [
     "Refusals",
     "host_of",
     "hosts_option",
+    "is_loopback_name",
     "max_body_option",
     "same_secret",
 ]
@@ -93,7 +94,8 @@ def _is_ip(text: str) -> bool:
     return True
 
 
-def _is_loopback(host: str) -> bool:
+def is_loopback_name(host: str) -> bool:
+    """``localhost`` or a loopback address, as written (no name is looked up)."""
     if host == "localhost":
         return True
     try:
@@ -109,7 +111,7 @@ class HostRule:
         listen = listen_host.strip("[]").lower()
         allowed = {listen}
         self.any_ip = listen in _WILDCARDS
-        if _is_loopback(listen) or self.any_ip:
+        if is_loopback_name(listen) or self.any_ip:
             allowed.update(_LOOPBACK_NAMES)
         if self.any_ip:
             with_name = socket.gethostname().lower()

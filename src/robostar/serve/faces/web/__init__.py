@@ -30,6 +30,7 @@ from pathlib import Path
 from typing import Any
 
 from robostar.errors import UsageError
+from robostar.serve.http_guard import is_loopback_name
 from robostar.serve.server import LineServer
 
 __all__ = ["DEFAULT_LISTEN", "WebFace", "create"]
@@ -69,7 +70,7 @@ class WebFace:
             raise UsageError("web: give both tls_cert and tls_key, or neither")
         self._tls = tls if tls[0] is not None else None
         self._behind_proxy = bool(options.get("behind_proxy"))
-        if not _is_loopback(self.host):
+        if not is_loopback_name(self.host):
             if not options.get("allow_remote"):
                 raise UsageError(
                     f"web: {self.host} is not a loopback address; set allow_remote = true "
@@ -158,17 +159,6 @@ def _listen(text: str) -> tuple[str, int]:
     if not sep or not host or not port.isdigit() or not 0 <= int(port) <= 65535:
         raise UsageError(f"web: listen {text!r} is not HOST:PORT (e.g. {DEFAULT_LISTEN})")
     return host, int(port)
-
-
-def _is_loopback(host: str) -> bool:
-    import ipaddress
-
-    if host == "localhost":
-        return True
-    try:
-        return ipaddress.ip_address(host).is_loopback
-    except ValueError:
-        return False
 
 
 def _secret(path: object) -> str:
