@@ -35,6 +35,7 @@ from robostar.errors import (
     RobostarError,
     UploadIncompleteError,
 )
+from robostar.protocol.frame import ACK, encode_packet
 from robostar.protocol.link import (
     After,
     ControllerLink,
@@ -375,6 +376,39 @@ def test_exchange_feeds_upload_lines_as_the_controller_asks() -> None:
     assert stored == [b"MAIN\n", b"JMOV P1\n", b"EOP\n"]
     assert exchange.outcome().lines_sent == 3
     assert seen == [(1, 3), (2, 3), (3, 3)]
+
+
+def test_an_answer_taken_where_it_lands_is_the_answer_receive_would_take() -> None:
+    """answer_at_once (an asyncio transport's callback) takes exactly a single exchange's clean
+    answer, returns its ACK and ends the exchange as receive() would; anything else it declines,
+    changing nothing, and receive() then decides."""
+    answer = encode_packet(STATUS_OK)
+    taken, plain = HostLink(timeout=1.0), HostLink(timeout=1.0)
+    at_once, received = Exchange(taken, ReadStatus()), Exchange(plain, ReadStatus())
+    for exchange in (at_once, received):
+        exchange.start(0.0)
+        exchange.output()
+    assert at_once.answer_at_once(answer, 0.1) == bytes((ACK,))
+    received.receive(answer, 0.1)
+    assert received.output() == bytes((ACK,))
+    assert at_once.done and received.done
+    assert at_once.outcome() == received.outcome()
+    assert at_once.outcome().packets == (STATUS_OK,)
+    assert taken.state is plain.state and taken.idle
+    # Declined: half a frame, an error flag, a multi-packet exchange.
+    for data, command in (
+        (answer[:3], ReadStatus()),
+        (encode_packet(b"\xff2"), ReadStatus()),
+        (answer, DownloadFile(1, "A.JOB")),
+    ):
+        link = HostLink(timeout=1.0)
+        exchange = Exchange(link, command)
+        exchange.start(0.0)
+        assert exchange.output()
+        state = link.state
+        assert exchange.answer_at_once(data, 0.1) is None
+        assert not exchange.done and link.data_to_send() == b"" and link.state is state
+        exchange.receive(data, 0.1)  # the rules still take it from here
 
 
 def test_exchange_refuses_a_bad_field_before_anything_is_sent() -> None:

@@ -425,6 +425,98 @@ def test_async_nowait_twins_leave_a_subclass_its_own_write_and_read(
     assert AsyncPeerTransport(CannedPeerForNowait()).read_nowait() is None
 
 
+def test_async_read_answering_writes_the_reply_where_the_bytes_land(
+    echo_server: tuple[str, int, list[socket.socket]],
+) -> None:
+    """read_answering offers arriving bytes to the answerer in the transport's own callback
+    (no task is running there): what it takes is answered at once and the read returns b"";
+    what it declines is the read's, nothing written."""
+    host, port, _ = echo_server
+    offered: list[tuple[bytes, float, object]] = []
+
+    def answer(data: bytes, now: float) -> bytes | None:
+        offered.append((data, now, asyncio.current_task()))
+        return b"ACK!" if data == AA else None
+
+    async def main() -> None:
+        transport = await open_async_transport(f"tcp://{host}:{port}")
+        async with transport:
+            before = time.monotonic()
+            await transport.write(AA)
+            assert await transport.read_answering(1.0, answer) == b""
+            [(data, now, task)] = offered
+            assert data == AA and task is None and before <= now <= time.monotonic()
+            assert await transport.read(1.0) == b"ACK!"  # written back by the callback, echoed
+            await transport.write(b"other")
+            assert await transport.read_answering(1.0, answer) == b"other"  # declined
+            assert await transport.read(0.05) == b""  # and nothing written for it
+            # Bytes already waiting are the read's: nothing is offered.
+            await transport.write(AA)
+            await asyncio.sleep(0.05)
+            assert await transport.read_answering(1.0, answer) == AA
+            assert len(offered) == 2
+
+    asyncio.run(main())
+
+
+def test_async_read_answering_reports_a_reply_that_could_not_be_written(
+    echo_server: tuple[str, int, list[socket.socket]],
+) -> None:
+    host, port, _ = echo_server
+
+    class Broken:
+        def write(self, data: bytes) -> None:
+            raise OSError(errno.EPIPE, "broken pipe")
+
+    async def main() -> None:
+        transport = await open_async_transport(f"tcp://{host}:{port}")
+        assert isinstance(transport, AsyncTcpTransport)
+        protocol = transport._protocol
+        assert protocol is not None
+        line = protocol._line
+        await transport.write(AA)
+        protocol._line = Broken()  # type: ignore[assignment]
+        try:
+            with pytest.raises(PortError, match="lost"):
+                await transport.read_answering(1.0, lambda data, now: b"\x06")
+        finally:
+            if line is not None:
+                line.close()
+
+    asyncio.run(main())
+
+
+def test_async_read_answering_is_read_where_nothing_can_be_offered(
+    echo_server: tuple[str, int, list[socket.socket]],
+) -> None:
+    """A transport without the callback (the base's default) or a subclass with its own read()
+    reads as read() does; the answerer is never called."""
+    host, port, _ = echo_server
+    calls: list[str] = []
+
+    class Counting(AsyncTcpTransport):
+        async def read(self, timeout: float) -> bytes:
+            calls.append("read")
+            return await super().read(timeout)
+
+    def never(data: bytes, now: float) -> bytes | None:
+        raise AssertionError("offered")
+
+    async def main() -> None:
+        transport = Counting(host, port)
+        await transport.open()
+        await transport.write(AA)
+        assert await transport.read_answering(1.0, never) == AA
+        await transport.close()
+        peer = AsyncPeerTransport(CannedPeerForNowait())
+        await peer.open()
+        assert await peer.read_answering(0.0, never) == b""
+        await peer.close()
+
+    asyncio.run(main())
+    assert calls == ["read"]
+
+
 class CannedPeerForNowait:
     def receive_data(self, data: bytes, now: float) -> None:
         pass

@@ -150,6 +150,9 @@ class AsyncClient(AsyncOperations, ClientBase):
         exchange = Exchange(link, command, progress)
         written = False
         clock = time.monotonic
+        # A clean single answer is ACKed where it lands, a loop turn before this task resumes
+        # (AsyncTransport.read_answering); traced or with progress, every byte comes here.
+        answer = None if traced or progress is not None else exchange.answer_at_once
         try:
             stray = transport.read_nowait()  # the drain's first read(0), without awaiting
             if stray != b"":
@@ -174,7 +177,12 @@ class AsyncClient(AsyncOperations, ClientBase):
                 deadline = link.next_deadline()
                 if deadline is None:
                     deadline = exchange.deadline()  # raises: the link must be timing a wait
-                data = await transport.read(max(deadline - clock(), 0.0))
+                if answer is None:
+                    data = await transport.read(max(deadline - clock(), 0.0))
+                else:
+                    data = await transport.read_answering(max(deadline - clock(), 0.0), answer)
+                    if exchange.done:  # taken, and ACKed, by answer_at_once
+                        continue
                 if data:
                     if traced:
                         self._traced_received(data)

@@ -145,6 +145,21 @@ class Exchange:
                 return
         self._handle(self.link.receive_data(data, now), now)
 
+    def answer_at_once(self, data: bytes, now: float) -> bytes | None:
+        """Take a SINGLE exchange's clean answer where it lands (an
+        :class:`~robostar.transport.base.Answerer`): when ``data`` is exactly that answer the
+        exchange is done and this returns the ACK to write at once; otherwise None, nothing
+        changed (give ``data`` to :meth:`receive`). Only for an exchange without progress
+        (its callback must not run inside a transport's)."""
+        if not self._single:
+            return None
+        packet = self.link.receive_clean_answer(data, now)
+        if packet is None:
+            return None
+        self._packets.append(packet)
+        self.done = True
+        return self.link.data_to_send()
+
     def tick(self, now: float) -> None:
         self._handle(self.link.handle_timeout(now), now)
 

@@ -5,15 +5,16 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import socket
+import time
 from abc import abstractmethod
 from collections.abc import Awaitable
-from typing import Any
+from typing import Any, cast
 
 import serial
 import serial_asyncio_fast
 
 from robostar.errors import PortError
-from robostar.transport.base import AsyncTransport, Transport
+from robostar.transport.base import Answerer, AsyncTransport, Transport
 from robostar.transport.serial_port import SerialSettings, port_error
 from robostar.transport.tcp import tcp_open_error
 from robostar.transport.url import DEFAULT_BAUDRATE, DEFAULT_TCP_PORT
@@ -38,6 +39,11 @@ class LineProtocol(asyncio.Protocol):
         self.drained: asyncio.Future[None] | None = None
         self._timer: asyncio.TimerHandle | None = None
         self._timer_at = 0.0
+        self.answer: Answerer | None = None
+        """Offered what arrives while a read waits (:meth:`AsyncTransport.read_answering`)."""
+        self.answer_failed: BaseException | None = None
+        """Writing what :attr:`answer` returned failed: the read reports the line lost."""
+        self._line: asyncio.WriteTransport | None = None
 
     def wait_until(self, loop: asyncio.AbstractEventLoop, deadline: float) -> asyncio.Future[None]:
         """A new waiter, woken by data, a lost line or ``deadline`` (loop time).
@@ -79,7 +85,23 @@ class LineProtocol(asyncio.Protocol):
         if waiter is not None and not waiter.done():
             waiter.set_result(None)
 
+    def connection_made(self, transport: asyncio.BaseTransport) -> None:
+        self._line = cast(asyncio.WriteTransport, transport)
+
     def data_received(self, data: bytes) -> None:
+        answer = self.answer
+        if answer is not None and not self.buffer:
+            reply = answer(data, time.monotonic())
+            if reply is not None:
+                self.answer = None  # one answer per read
+                if reply:
+                    try:
+                        assert self._line is not None
+                        self._line.write(reply)
+                    except (OSError, serial.SerialException) as exc:
+                        self.answer_failed = exc
+                self._wake()
+                return
         self.buffer += data
         self._wake()
 
@@ -194,6 +216,20 @@ class _ProtocolTransport(AsyncTransport):
             protocol.buffer.clear()
             return data
         return b""
+
+    async def read_answering(self, timeout: float, answer: Answerer) -> bytes:
+        protocol = self._protocol
+        if not self._own_read or protocol is None or protocol.buffer or protocol.lost:
+            return await self.read(timeout)  # nothing to offer, or read() says what is wrong
+        protocol.answer = answer
+        try:
+            data = await self.read(timeout)
+        finally:
+            protocol.answer = None
+        failed, protocol.answer_failed = protocol.answer_failed, None
+        if failed is not None:
+            raise await self._lost(failed) from failed
+        return data
 
     async def read(self, timeout: float) -> bytes:
         protocol = self._protocol

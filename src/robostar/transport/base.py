@@ -9,13 +9,17 @@ opened again, which is how a client reconnects.
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from collections.abc import Awaitable
+from collections.abc import Awaitable, Callable
 from types import TracebackType
-from typing import Self
+from typing import Self, TypeAlias
 
 from robostar.errors import PortError
 
-__all__ = ["AsyncTransport", "Transport"]
+__all__ = ["Answerer", "AsyncTransport", "Transport"]
+
+Answerer: TypeAlias = Callable[[bytes, float], bytes | None]
+"""``answer(data, now)``: takes bytes the moment they arrive and returns what to write back at
+once, or None to leave them to the read (:meth:`AsyncTransport.read_answering`)."""
 
 
 class Transport(ABC):
@@ -103,6 +107,20 @@ class AsyncTransport(ABC):
         """``read(0)`` when it needs no awaiting: the bytes already here (empty if none); None
         when the caller must await ``read(0)`` instead (the default)."""
         return None
+
+    async def read_answering(self, timeout: float, answer: Answerer) -> bytes:
+        """:meth:`read`, offering what arrives while it waits to ``answer`` first.
+
+        ``answer(data, now)`` runs where the bytes land (on the loop, in the transport's own
+        callback), before the waiting task is resumed: when it takes them it returns the bytes
+        to write back at once (an ACK), written there and then, and the read returns ``b""``;
+        when it returns None the bytes are the read's, as usual. A host then ACKs an answer one
+        turn of the loop sooner, while its task is still on its way back, so the controller
+        deals with the ACK in that time and not after. ``now`` is ``time.monotonic()``.
+
+        By default nothing is offered: this is :meth:`read`.
+        """
+        return await self.read(timeout)
 
     def _closed_error(self) -> PortError:
         return PortError(f"{self.url}: the port is not open")
