@@ -17,6 +17,7 @@ import pytest
 
 from robostar import AsyncClient, Client
 from robostar.protocol.frame import encode_packet
+from robostar.transport import Transport
 
 REQUEST = encode_packet(b"\xffAA")
 ANSWER = encode_packet(b"0\x84\x84\x80")
@@ -101,3 +102,78 @@ def test_the_asyncio_client_drains_stray_input_first(server: tuple[Scripted, byt
 
     asyncio.run(main())
     assert scripted.everything_received() == REQUEST + ACK + reply + REQUEST + ACK
+
+
+class CountingDrains:
+    """Counts the drain's reads (``read(0.0)``) a client makes on a simulator's line."""
+
+    def __init__(self) -> None:
+        from robostar.transport import transport_for_url
+
+        self.inner = transport_for_url("sim://")
+        self.drains = 0
+
+    def wrap(self) -> Transport:
+        counter, inner = self, self.inner
+
+        class Counted(type(inner)):  # type: ignore[misc]
+            def read(self, timeout: float) -> bytes:
+                if timeout == 0.0:
+                    counter.drains += 1
+                return super().read(timeout)
+
+        inner.__class__ = Counted
+        return inner
+
+
+def test_a_read_right_after_an_exchange_ended_in_order_needs_no_drain(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Within FRESH_LINE of an exchange that ended in order, a read goes out without the
+    drain's read (no controller resends that soon); a state change always drains, and so does
+    a read once the window has passed or after an exchange that did not end in order."""
+    import robostar.client.sync as sync
+    from robostar.commands.control import SetSpeed
+
+    counting = CountingDrains()
+    monkeypatch.setattr(sync, "FRESH_LINE", 3600.0)  # every call below falls inside it
+    with Client(counting.wrap(), timeout=1.0) as client:
+        client.status()
+        assert counting.drains == 1  # the first exchange: nothing before it
+        client.status()
+        client.position(1)
+        assert counting.drains == 1
+        client.execute(SetSpeed(1, 50))  # a state change drains
+        assert counting.drains == 2
+        client.status()  # ... and ended in order: no drain for the read after it
+        assert counting.drains == 2
+        client._fresh_until = 0.0  # the window passed
+        client.status()
+        assert counting.drains == 3
+    monkeypatch.setattr(sync, "FRESH_LINE", 0.0)
+    counting = CountingDrains()
+    with Client(counting.wrap(), timeout=1.0) as client:
+        for _ in range(3):
+            client.status()
+        assert counting.drains == 3
+
+
+def test_a_read_after_an_exchange_that_failed_drains(monkeypatch: pytest.MonkeyPatch) -> None:
+    import robostar.client.sync as sync
+    from robostar.errors import RobostarError
+
+    monkeypatch.setattr(sync, "FRESH_LINE", 3600.0)
+    counting = CountingDrains()
+    with Client(counting.wrap(), timeout=0.2, retries=0) as client:
+        client.status()
+        assert counting.drains == 1
+        # The controller goes silent for one exchange: it times out and ends with RST.
+        peer = counting.inner
+        real = peer.write
+        peer.write = lambda data: None  # type: ignore[method-assign]
+        with pytest.raises(RobostarError):
+            client.status()
+        peer.write = real  # type: ignore[method-assign]
+        drains = counting.drains
+        client.status()
+        assert counting.drains == drains + 1

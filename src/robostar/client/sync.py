@@ -9,7 +9,13 @@ from types import TracebackType
 from typing import Any, Self, TypeVar, cast
 
 from robostar.client._sync_face import SyncOperations
-from robostar.client.core import DRAIN_READS, ClientBase, Settings, check_keepalive
+from robostar.client.core import (
+    DRAIN_READS,
+    FRESH_LINE,
+    ClientBase,
+    Settings,
+    check_keepalive,
+)
 from robostar.client.driver import NOT_DECODED, command_plan, decoded_at_once
 from robostar.client.exchange import Exchange, Progress
 from robostar.client.jog import Jog, jog_start
@@ -82,6 +88,7 @@ class Client(SyncOperations, ClientBase):
             self.transport.open()
         self._opened = True
         self._link = self._new_link()
+        self._fresh_until = 0.0  # a read before this needs no drain (FRESH_LINE)
 
     def _ensure_open(self) -> None:
         if not self.transport.is_open:
@@ -160,7 +167,11 @@ class Client(SyncOperations, ClientBase):
         written = False
         clock = time.monotonic
         try:
-            stray = transport.read(0.0)  # the drain's first read
+            if command.CHANGES_STATE or clock() >= self._fresh_until:
+                stray = transport.read(0.0)  # the drain's first read
+            else:
+                stray = b""  # a read right after an exchange ended in order (FRESH_LINE)
+            self._fresh_until = 0.0  # until this exchange, too, ends in order
             if stray:
                 self._drain(stray)
             elif out := link.data_to_send():  # what _drain writes after its reads
@@ -175,6 +186,8 @@ class Client(SyncOperations, ClientBase):
                         self._traced_sent(out)
                     transport.write(out)
                 if exchange.done:
+                    if link.idle:  # ended in order (not a reset): the next read may skip a drain
+                        self._fresh_until = clock() + FRESH_LINE
                     return exchange
                 deadline = link.next_deadline()
                 if deadline is None:
