@@ -5,6 +5,10 @@ the request, sends the answer, reads the ACK. Blocking sockets, Nagle off on bot
 robostar's transport and simulator. No framing, no checks: the fastest any Python host could
 go on this machine, which the protocol stacks are measured against.
 
+:func:`async_client_loop` is the asyncio twin, the floor of an asyncio host: an
+``asyncio.Protocol`` whose ``data_received`` ACKs a whole answer at once and wakes the one
+waiting task; the task writes the next request. No streams, no framing, no checks.
+
 ``python -m bench.floor`` runs the server on a free loopback port and prints ``host:port``.
 ``python -m bench.floor canned`` runs the same minimal server for robostar's client instead:
 it reads a request up to its ETX and LRC, sends a fixed answer (AA or AC, made beforehand),
@@ -15,13 +19,24 @@ these, each client library is measured with a server as cheap as the floor's.
 
 from __future__ import annotations
 
+import asyncio
 import socket
 import struct
 import sys
 import threading
 import time
 
-__all__ = ["ANSWER", "REQUEST", "bound", "canned_answers", "client_loop", "connect", "serve"]
+__all__ = [
+    "ANSWER",
+    "REQUEST",
+    "AsyncFloor",
+    "async_client_loop",
+    "bound",
+    "canned_answers",
+    "client_loop",
+    "connect",
+    "serve",
+]
 
 REQUEST = b"\x02\xffAA\x03\xbe\x00"
 ANSWER = b"\x02\x30\xbc\x84\x80\x03\x88\x00"
@@ -161,6 +176,56 @@ def client_loop(sock: socket.socket, *, seconds: float, limit: int) -> int:
                 raise EOFError("floor server closed the connection")
             got += len(chunk)
         sock.sendall(ACK)
+        done += 1
+        if not done & 63 and time.perf_counter() >= end:
+            break
+    return done
+
+
+class AsyncFloor(asyncio.Protocol):
+    """The N1 exchange's host side as an asyncio.Protocol: a whole answer is ACKed where it
+    lands and wakes the waiting task."""
+
+    def __init__(self) -> None:
+        self.transport: asyncio.Transport | None = None
+        self.waiter: asyncio.Future[None] | None = None
+        self.got = 0
+
+    def connection_made(self, transport: asyncio.BaseTransport) -> None:
+        assert isinstance(transport, asyncio.Transport)
+        self.transport = transport
+
+    def data_received(self, data: bytes) -> None:
+        self.got += len(data)
+        if self.got >= len(ANSWER):
+            self.got = 0
+            assert self.transport is not None and self.waiter is not None
+            self.transport.write(ACK)
+            self.waiter.set_result(None)
+
+    def connection_lost(self, exc: Exception | None) -> None:
+        if self.waiter is not None and not self.waiter.done():
+            self.waiter.set_exception(EOFError("floor server closed the connection"))
+
+
+async def async_connect(address: str) -> AsyncFloor:
+    host, port = address.rsplit(":", 1)
+    loop = asyncio.get_running_loop()
+    _, protocol = await loop.create_connection(AsyncFloor, host, int(port))
+    return protocol
+
+
+async def async_client_loop(protocol: AsyncFloor, *, seconds: float, limit: int) -> int:
+    """:func:`client_loop` on asyncio."""
+    loop = asyncio.get_running_loop()
+    transport = protocol.transport
+    assert transport is not None
+    end = time.perf_counter() + seconds
+    done = 0
+    while done < limit:
+        protocol.waiter = waiter = loop.create_future()
+        transport.write(REQUEST)
+        await waiter
         done += 1
         if not done & 63 and time.perf_counter() >= end:
             break

@@ -3,6 +3,8 @@
 Contenders, each a client in this process against a server in another process:
 
 - ``raw floor``: the three messages over blocking sockets (:mod:`bench.floor`);
+- ``asyncio floor``: the same on asyncio, an ``asyncio.Protocol`` that ACKs a whole answer
+  where it lands (:func:`bench.floor.async_client_loop`): the async contenders' floor;
 - ``pymodbus sync`` / ``pymodbus async``: read 10 holding registers from pymodbus's server;
 - ``robostar sync|async AA|AC``: :class:`~robostar.Client` / :class:`~robostar.AsyncClient`
   against the simulator (``python -m robostar.sim``), AA (status) and AC (4-axis position);
@@ -13,7 +15,8 @@ Contenders, each a client in this process against a server in another process:
 
 Every round runs each contender for a fixed time, in an order that rotates from round to
 round; the figures are medians over rounds, and each ratio is the median of the per-round
-ratios against the floor of the same round, so a noisy neighbour weighs on both alike. Client
+ratios against the matching floor of the same round (the raw floor for blocking clients, the
+asyncio floor for asyncio ones), so a noisy neighbour weighs on both alike. Client
 CPU is this process's user + system time; server CPU is read from the server process.
 
 On Linux with two CPUs or more, the clients (this process) run on one CPU and every server on
@@ -145,6 +148,7 @@ def run(
         asyncio.Runner() as runner,
     ):
         floor_sock = floor.connect(floor_server.lines[0])
+        async_floor = runner.run(floor.async_connect(floor_server.lines[0]))
         mb_sync = modbus_ref.sync_client(modbus_server.lines[0])
         mb_async = runner.run(modbus_ref.async_client(modbus_server.lines[0]))
         mbc_sync = modbus_ref.sync_client(mb_canned.lines[0])
@@ -159,6 +163,10 @@ def run(
         contenders: dict[str, tuple[Loop, ServerProcess]] = {
             "raw floor": (
                 lambda s: floor.client_loop(floor_sock, seconds=s, limit=_LIMIT),
+                floor_server,
+            ),
+            "asyncio floor": (
+                lambda s: runner.run(floor.async_client_loop(async_floor, seconds=s, limit=_LIMIT)),
                 floor_server,
             ),
             "pymodbus sync": (
@@ -209,6 +217,8 @@ def run(
                     samples.setdefault(name, []).append(_measure(loop, seconds, server))
         finally:
             floor_sock.close()
+            assert async_floor.transport is not None
+            async_floor.transport.close()
             mb_sync.close()
             mb_async.close()
             mbc_sync.close()
@@ -225,16 +235,19 @@ def run(
 def _report(
     samples: dict[str, list[_Sample]], seconds: float, rounds: int
 ) -> tuple[dict[str, Any], list[Row]]:
-    floor_samples = samples["raw floor"]
     results: dict[str, Any] = {"seconds": seconds, "rounds": rounds, "contenders": {}}
     rows = []
     for name, runs in samples.items():
+        floor_name = _floor_of(name)
+        floor_samples = samples[floor_name]
         rate_ratio = median(s.rate / f.rate for s, f in zip(runs, floor_samples, strict=True))
         cpu_ratio = median(s.cpu_us / f.cpu_us for s, f in zip(runs, floor_samples, strict=True))
+        short = "floor" if floor_name == "raw floor" else "async floor"
         entry = {
             "rate": median(s.rate for s in runs),
             "client_cpu_us": median(s.cpu_us for s in runs),
             "server_cpu_us": median(s.server_us for s in runs),
+            "floor": floor_name,
             "rate_vs_floor": rate_ratio,
             "cpu_vs_floor": cpu_ratio,
             "rounds": [
@@ -248,8 +261,8 @@ def _report(
             Row(
                 "2 loopback",
                 f"{name}: exchanges/s",
-                f"{entry['rate']:,.0f} ({rate_ratio:.0%} of floor)",
-                f"≥ {RATE_TARGET:.0%} of floor" if ours else "",
+                f"{entry['rate']:,.0f} ({rate_ratio:.0%} of {short})",
+                f"≥ {RATE_TARGET:.0%} of {short}" if ours else "",
                 rate_ratio >= RATE_TARGET if ours else None,
             )
         )
@@ -257,9 +270,9 @@ def _report(
             Row(
                 "2 loopback",
                 f"{name}: client CPU/exchange",
-                f"{entry['client_cpu_us']:.0f} µs ({cpu_ratio:.2f}× floor;"
+                f"{entry['client_cpu_us']:.0f} µs ({cpu_ratio:.2f}× {short};"
                 f" server {entry['server_cpu_us']:.0f} µs)",
-                f"≤ {CPU_TARGET}× floor" if ours else "",
+                f"≤ {CPU_TARGET}× {short}" if ours else "",
                 cpu_ratio <= CPU_TARGET if ours else None,
             )
         )
@@ -268,6 +281,11 @@ def _report(
         results["contenders"][name]["vs_pymodbus_sync"] = results["contenders"][name]["rate"] / mb
     rows += _against_pymodbus(samples, results)
     return results, rows
+
+
+def _floor_of(name: str) -> str:
+    """The floor a contender is measured against: asyncio's for an asyncio client."""
+    return "asyncio floor" if "async" in name else "raw floor"
 
 
 PYMODBUS_TARGETS = {"sync": 1.0, "async": 1.2}
@@ -300,6 +318,19 @@ def _against_pymodbus(samples: dict[str, list[_Sample]], results: dict[str, Any]
                 f"{cpu:.2f}×",
                 "< 1.0×",
                 cpu < 1.0,
+            )
+        )
+        floor_name = _floor_of(f"robostar {kind}")
+        pairs_floor = list(zip(ours, samples[floor_name], strict=True))
+        to_floor = median(a.cpu_us / b.cpu_us for a, b in pairs_floor)
+        results[f"vs_floor_{kind}"] = {"client_cpu": to_floor, "floor": floor_name}
+        rows.append(
+            Row(
+                "2 loopback",
+                f"robostar {kind} AA, canned: client CPU ÷ the {floor_name}'s",
+                f"{to_floor:.2f}×",
+                f"≤ {CPU_TARGET}×",
+                to_floor <= CPU_TARGET,
             )
         )
     sim = samples["robostar sync AA"]

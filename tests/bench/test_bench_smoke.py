@@ -58,6 +58,11 @@ def test_loopback() -> None:
     for entry in contenders.values():
         assert entry["rate"] > 0 and _finite(entry["client_cpu_us"])
     assert contenders["raw floor"]["rate_vs_floor"] == 1.0
+    # asyncio clients are measured against asyncio's floor, blocking ones against the raw one
+    assert contenders["asyncio floor"]["rate_vs_floor"] == 1.0
+    assert contenders["robostar async AA"]["floor"] == "asyncio floor"
+    assert contenders["robostar sync AA"]["floor"] == "raw floor"
+    assert results["vs_floor_async"]["floor"] == "asyncio floor"
 
 
 def test_wire_and_plot(tmp_path: Path) -> None:
