@@ -17,6 +17,9 @@ SIM = "sim://?speedup=50"
 """The in-process simulator, fast enough that no test waits long for a motion."""
 
 Run = Callable[..., Result]
+"""The ``run`` and ``on`` fixtures: ``robostar ARGS`` in-process, click's Result back."""
+AsJson = Callable[[Result], Any]
+"""The ``as_json`` fixture."""
 
 
 @pytest.fixture
@@ -57,6 +60,12 @@ class SimLine:
         with self.host.lock:
             self.controller.model.set_input(port, contact, on)
 
+    def jobs(self, channel: int = 1) -> dict[str, list[str]]:
+        """The channel's files as the simulator holds them: name -> lines (none for a PNT)."""
+        with self.host.lock:
+            files = self.controller.model.channel(channel).files
+            return {str(f.name): list(getattr(f, "lines", [])) for f in files}
+
 
 @pytest.fixture
 def sim_line() -> Iterator[SimLine]:
@@ -71,6 +80,16 @@ def sim_line() -> Iterator[SimLine]:
         yield SimLine(host, controller, f"tcp://{address[0]}:{address[1]}")
     finally:
         host.close()
+
+
+@pytest.fixture
+def on(run: Run, sim_line: SimLine) -> Run:
+    """`run` against the served simulator, whose state carries from one command to the next."""
+
+    def invoke(*args: str, **kwargs: Any) -> Result:
+        return run(*args, port=sim_line.url, **kwargs)
+
+    return invoke
 
 
 class Terminal:
