@@ -17,6 +17,9 @@ SIM = "sim://?speedup=50"
 """The in-process simulator, fast enough that no test waits long for a motion."""
 
 Run = Callable[..., Result]
+"""The ``run`` and ``on`` fixtures: ``robostar ARGS`` in-process, click's Result back."""
+AsJson = Callable[[Result], Any]
+"""The ``as_json`` fixture."""
 
 
 @pytest.fixture
@@ -57,6 +60,12 @@ class SimLine:
         with self.host.lock:
             self.controller.model.set_input(port, contact, on)
 
+    def jobs(self, channel: int = 1) -> dict[str, list[str]]:
+        """The channel's files as the simulator holds them: name -> lines (none for a PNT)."""
+        with self.host.lock:
+            files = self.controller.model.channel(channel).files
+            return {str(f.name): list(getattr(f, "lines", [])) for f in files}
+
 
 @pytest.fixture
 def sim_line() -> Iterator[SimLine]:
@@ -71,6 +80,16 @@ def sim_line() -> Iterator[SimLine]:
         yield SimLine(host, controller, f"tcp://{address[0]}:{address[1]}")
     finally:
         host.close()
+
+
+@pytest.fixture
+def on(run: Run, sim_line: SimLine) -> Run:
+    """`run` against the served simulator, whose state carries from one command to the next."""
+
+    def invoke(*args: str, **kwargs: Any) -> Result:
+        return run(*args, port=sim_line.url, **kwargs)
+
+    return invoke
 
 
 class Terminal:
@@ -200,3 +219,79 @@ def terminal() -> Iterator[Callable[..., Terminal]]:
     yield start
     for term in started:
         term.close()
+
+
+class RealControllerStandIn:
+    """A byte peer that answers as a real N1 does: the simulator behind it, with its AD version
+    as a real controller's firmware writes it (no -SIM mark), and any name it is given.
+
+    No simulator setting can drop the mark, so this is how the console tests meet a controller
+    whose identity is not a simulator's (an N1 host program sees nothing else of it).
+    """
+
+    def __init__(self, *, name: str = "LINE3", version: str = "N1RO 03.02.05") -> None:
+        from robostar.protocol.frame import FrameDecoder
+        from robostar.sim import SimConfig, VirtualController
+
+        self.controller = VirtualController(SimConfig(speedup=50))
+        self.name = name
+        self.version = version
+        self._requests = FrameDecoder()
+        self._answers = FrameDecoder()
+        self._last_request = b""
+
+    def receive_data(self, data: bytes, now: float) -> None:
+        from robostar.protocol.frame import Packet
+
+        for event in self._requests.feed(data):
+            if isinstance(event, Packet):
+                self._last_request = event.data
+        self.controller.receive_data(data, now)
+
+    def data_to_send(self, now: float) -> bytes:
+        from robostar.protocol.frame import Control, Packet, encode_packet
+
+        out = bytearray()
+        for event in self._answers.feed(self.controller.data_to_send(now)):
+            if isinstance(event, Packet):
+                out += encode_packet(self._as_real(event.data))
+            elif isinstance(event, Control):
+                out.append(event.kind.value)
+        return bytes(out)
+
+    def next_deadline(self) -> float | None:
+        return self.controller.next_deadline()
+
+    def _as_real(self, data: bytes) -> bytes:
+        from dataclasses import replace
+
+        from robostar.commands.status import ReadInfo
+
+        if self._last_request != b"\xffAD" or data[1:2] != b"0":
+            return data
+        command = ReadInfo()
+        info = command.decode_answer([data])
+        (answer,) = command.encode_answer(replace(info, name=self.name, version=self.version))
+        return answer
+
+
+@pytest.fixture
+def served() -> Iterator[Callable[..., str]]:
+    """Serve a byte peer (a VirtualController, a stand-in) for the test and return its --port
+    URL: TCP on 127.0.0.1, or with ``pty=True`` a pseudo-terminal's device."""
+    from robostar.sim.server import PtyServer, SimServer
+
+    servers: list[Any] = []
+
+    def serve(peer: Any, *, pty: bool = False) -> str:
+        if pty:
+            tty = PtyServer(peer, name="cli-test").start()
+            servers.append(tty)
+            return tty.device_path
+        tcp = SimServer(peer, name="cli-test").start()
+        servers.append(tcp)
+        return tcp.url
+
+    yield serve
+    for server in servers:
+        server.close()

@@ -3,24 +3,11 @@
 from __future__ import annotations
 
 import json
-from collections.abc import Callable
 from typing import Any
 
 import pytest
-from click.testing import Result
 
-Run = Callable[..., Result]
-AsJson = Callable[[Result], Any]
-
-
-@pytest.fixture
-def on(run: Run, sim_line: Any) -> Run:
-    """`run` against the served simulator, whose state carries from one command to the next."""
-
-    def invoke(*args: str, **kwargs: Any) -> Result:
-        return run(*args, port=sim_line.url, **kwargs)
-
-    return invoke
+from .conftest import AsJson, Run
 
 
 def homed(on: Run) -> None:

@@ -22,29 +22,13 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from click.testing import Result
 
 from robostar.client import Client, backup, sync
 from robostar.client.backup import Manifest
 from robostar.commands.files import UploadFile
 from robostar.errors import UploadIncompleteError
 
-Run = Callable[..., Result]
-AsJson = Callable[[Result], Any]
-
-
-@pytest.fixture
-def on(run: Run, sim_line: Any) -> Run:
-    def invoke(*args: str, **kwargs: Any) -> Result:
-        return run(*args, port=sim_line.url, **kwargs)
-
-    return invoke
-
-
-def _jobs(sim_line: Any, channel: int) -> dict[str, list[str]]:
-    with sim_line.host.lock:
-        files = sim_line.controller.model.channel(channel).files
-        return {str(f.name): list(getattr(f, "lines", [])) for f in files}
+from .conftest import AsJson, Run
 
 
 def _change_every_job(folder: Path) -> None:
@@ -104,7 +88,7 @@ def test_a_failed_restore_says_the_controller_is_half_restored(
     assert "not touched: none" in said
     assert "Run the same restore again" in said
     # What the message says is what happened: ch1 already holds the backup's version.
-    assert len(_jobs(sim_line, 1)["DEMO.JOB"]) == len(_jobs(sim_line, 2)["DEMO.JOB"]) + 1
+    assert len(sim_line.jobs(1)["DEMO.JOB"]) == len(sim_line.jobs(2)["DEMO.JOB"]) + 1
 
 
 def test_a_failed_restore_in_json_carries_the_partial_state(
@@ -254,22 +238,28 @@ _FULL_DISK = textwrap.dedent(
 )
 
 
-def test_a_backup_that_cannot_be_written_is_not_called_a_cable_fault(tmp_path: Path) -> None:
-    folder = tmp_path / "bk"
-    with Client("sim://?speedup=50") as client:
-        client.backup(folder)
-    before = {p.relative_to(folder): p.read_bytes() for p in folder.rglob("*") if p.is_file()}
+def _backup_on_a_full_disk(*args: str) -> tuple[int, str]:
+    """`robostar --port sim:// backup ARGS` in a process whose disk is full: its exit code and
+    its stderr on one line."""
     env = {k: v for k, v in os.environ.items() if k != "ROBOSTAR_PORT"}
     done = subprocess.run(
-        [sys.executable, "-c", _FULL_DISK, "--port", "sim://", "backup", str(folder)],
+        [sys.executable, "-c", _FULL_DISK, "--port", "sim://", "backup", *args],
         capture_output=True,
         text=True,
         env=env,
         timeout=120,
         check=False,
     )
-    said = " ".join(done.stderr.split())
-    assert done.returncode == 2, said
+    return done.returncode, " ".join(done.stderr.split())
+
+
+def test_a_backup_that_cannot_be_written_is_not_called_a_cable_fault(tmp_path: Path) -> None:
+    folder = tmp_path / "bk"
+    with Client("sim://?speedup=50") as client:
+        client.backup(folder)
+    before = {p.relative_to(folder): p.read_bytes() for p in folder.rglob("*") if p.is_file()}
+    code, said = _backup_on_a_full_disk(str(folder))
+    assert code == 2, said
     assert f"cannot write the backup at '{folder}'" in said.lower()
     assert "the previous backup is intact" in said
     assert "cable" not in said and "port failed" not in said.lower()
@@ -281,26 +271,8 @@ def test_a_backup_that_cannot_be_written_is_not_called_a_cable_fault(tmp_path: P
     with Client("sim://?speedup=50") as client:
         client.backup(generations, keep=2)
     (first,) = list(generations.iterdir())
-    done = subprocess.run(
-        [
-            sys.executable,
-            "-c",
-            _FULL_DISK,
-            "--port",
-            "sim://",
-            "backup",
-            str(generations),
-            "--keep",
-            "2",
-        ],
-        capture_output=True,
-        text=True,
-        env=env,
-        timeout=120,
-        check=False,
-    )
-    said = " ".join(done.stderr.split())
-    assert done.returncode == 2, said
+    code, said = _backup_on_a_full_disk(str(generations), "--keep", "2")
+    assert code == 2, said
     assert "the previous backups in the folder are intact" in said
     assert list(generations.iterdir()) == [first]
 

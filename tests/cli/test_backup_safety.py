@@ -3,32 +3,15 @@
 from __future__ import annotations
 
 import json
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import pytest
-from click.testing import Result
 
 from robostar.client import Client
 from robostar.errors import UsageError
 
-Run = Callable[..., Result]
-AsJson = Callable[[Result], Any]
-
-
-@pytest.fixture
-def on(run: Run, sim_line: Any) -> Run:
-    def invoke(*args: str, **kwargs: Any) -> Result:
-        return run(*args, port=sim_line.url, **kwargs)
-
-    return invoke
-
-
-def _jobs(sim_line: Any, channel: int = 1) -> dict[str, list[str]]:
-    with sim_line.host.lock:
-        files = sim_line.controller.model.channel(channel).files
-        return {str(f.name): list(getattr(f, "lines", [])) for f in files}
+from .conftest import AsJson, Run
 
 
 def test_backup_refuses_a_foreign_folder(on: Run, tmp_path: Path) -> None:
@@ -95,7 +78,7 @@ def test_restore_dry_run_prints_the_diff_and_writes_nothing(
     on: Run, as_json: AsJson, tmp_path: Path, sim_line: Any
 ) -> None:
     folder = _prepare(on, tmp_path)
-    before = _jobs(sim_line), _jobs(sim_line, 2)
+    before = sim_line.jobs(), sim_line.jobs(2)
     data = as_json(on("--json", "restore", str(folder), "--dry-run", "--delete-extra"))
     assert data["dry_run"] is True and data["written"] is False
     diff = data["diff"]
@@ -104,7 +87,7 @@ def test_restore_dry_run_prints_the_diff_and_writes_nothing(
     assert diff["unchanged"] == ["ch1/DEMO.PNT", "ch2/DEMO.PNT"]
     assert diff["not_in_backup"] == ["ch1/EXTRA.JOB"]
     assert diff["would_be_deleted"] == ["ch1/EXTRA.JOB"]
-    assert (_jobs(sim_line), _jobs(sim_line, 2)) == before
+    assert (sim_line.jobs(), sim_line.jobs(2)) == before
     human = on("restore", str(folder), "--dry-run")
     assert "would" not in human.stdout or "not in the backup" in human.stdout
     assert "1 new, 1 changed, 2 unchanged" in human.stdout
@@ -112,15 +95,15 @@ def test_restore_dry_run_prints_the_diff_and_writes_nothing(
 
 def test_restore_asks_and_no_writes_nothing(on: Run, tmp_path: Path, sim_line: Any) -> None:
     folder = _prepare(on, tmp_path)
-    before = _jobs(sim_line), _jobs(sim_line, 2)
+    before = sim_line.jobs(), sim_line.jobs(2)
     result = on("restore", str(folder), input="n\n")
     assert result.exit_code == 1
     assert "Write 2 file change(s)" in result.stdout and "Nothing was written" in result.stdout
-    assert (_jobs(sim_line), _jobs(sim_line, 2)) == before
+    assert (sim_line.jobs(), sim_line.jobs(2)) == before
     yes = on("restore", str(folder), input="y\n")
     assert yes.exit_code == 0, yes.output
-    assert "DEMO.JOB" in _jobs(sim_line) and "EXTRA.JOB" in _jobs(sim_line)
-    assert _jobs(sim_line, 2)["DEMO.JOB"] != ["MAIN", "EOP"]
+    assert "DEMO.JOB" in sim_line.jobs() and "EXTRA.JOB" in sim_line.jobs()
+    assert sim_line.jobs(2)["DEMO.JOB"] != ["MAIN", "EOP"]
 
 
 def test_restore_channel_and_only(on: Run, as_json: AsJson, tmp_path: Path) -> None:
@@ -140,11 +123,11 @@ def test_restore_refuses_another_controller(on: Run, tmp_path: Path, sim_line: A
     manifest["controller"]["version"] = "9.99"
     manifest["controller"]["channels"][0]["axes_in_use"] = [1, 2]
     (folder / "manifest.json").write_text(json.dumps(manifest))
-    before = _jobs(sim_line), _jobs(sim_line, 2)
+    before = sim_line.jobs(), sim_line.jobs(2)
     result = on("restore", str(folder), "--yes")
     assert result.exit_code == 2
     assert "version" in result.stderr and "axes" in result.stderr
-    assert (_jobs(sim_line), _jobs(sim_line, 2)) == before
+    assert (sim_line.jobs(), sim_line.jobs(2)) == before
     forced = on("restore", str(folder), "--yes", "--ignore-identity")
     assert forced.exit_code == 0, forced.output
 

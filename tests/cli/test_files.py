@@ -3,25 +3,12 @@
 from __future__ import annotations
 
 import json
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-import pytest
-from click.testing import Result
-
-Run = Callable[..., Result]
-AsJson = Callable[[Result], Any]
+from .conftest import AsJson, Run
 
 JOB = ["MAIN", "JMOV P1", "OUT 0,2,1", "EOP"]
-
-
-@pytest.fixture
-def on(run: Run, sim_line: Any) -> Run:
-    def invoke(*args: str, **kwargs: Any) -> Result:
-        return run(*args, port=sim_line.url, **kwargs)
-
-    return invoke
 
 
 def names(on: Run, as_json: AsJson, channel: str = "1") -> list[str]:

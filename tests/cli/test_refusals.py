@@ -4,25 +4,14 @@ the alarm a refusal left behind."""
 from __future__ import annotations
 
 import json
-from collections.abc import Callable
-from typing import Any
 
 import pytest
-from click.testing import Result
 
 from robostar.cli.failures import explain, next_step, with_alarms_left
 from robostar.errors import FunctionFailedError
 from robostar.types import Alarm
 
-Run = Callable[..., Result]
-
-
-@pytest.fixture
-def on(run: Run, sim_line: Any) -> Run:
-    def invoke(*args: str, **kwargs: Any) -> Result:
-        return run(*args, port=sim_line.url, **kwargs)
-
-    return invoke
+from .conftest import Run
 
 
 @pytest.mark.parametrize(

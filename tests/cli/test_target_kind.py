@@ -3,31 +3,22 @@
 from __future__ import annotations
 
 import json
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from typing import Any
 
 import pytest
 from click.testing import Result
 
-from .conftest import SIM
+from .conftest import SIM, RealControllerStandIn
 
 Run = Callable[..., Result]
 
 
 @pytest.fixture
-def robot_like() -> Iterator[str]:
-    """A served simulator configured to answer AD as a real controller would (no -SIM)."""
-    from robostar.sim import SimConfig, VirtualController
-    from robostar.sim.server import PeerHost
-
-    config = SimConfig(speedup=50, name="LINE3", version="N1RO 03.02.05")
-    host = PeerHost(VirtualController(config), name="robot-like")
-    address = host.listen_tcp("127.0.0.1", 0)
-    host.start()
-    try:
-        yield f"tcp://{address[0]}:{address[1]}"
-    finally:
-        host.close()
+def robot_like(served: Callable[..., str]) -> str:
+    """A controller on this machine answering AD as a real N1 does (no -SIM): a served
+    simulator cannot any more (tests/cli/test_simulator_mark.py), so a stand-in does."""
+    return served(RealControllerStandIn())
 
 
 def test_json_errors_say_simulator_and_url(run: Run) -> None:

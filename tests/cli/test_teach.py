@@ -3,25 +3,14 @@
 from __future__ import annotations
 
 import json
-from collections.abc import Callable
 from typing import Any
 
 import pytest
-from click.testing import Result
 
 from robostar.cli.jogpad import AskGoto, AskTeach, Cancel, Goto, JogPad, Teach
 from robostar.client import Client
 
-Run = Callable[..., Result]
-AsJson = Callable[[Result], Any]
-
-
-@pytest.fixture
-def on(run: Run, sim_line: Any) -> Run:
-    def invoke(*args: str, **kwargs: Any) -> Result:
-        return run(*args, port=sim_line.url, **kwargs)
-
-    return invoke
+from .conftest import AsJson, Run
 
 
 def _home_and_move(url: str) -> tuple[float, ...]:

@@ -250,6 +250,7 @@ class Session:
     def _identify(self, client: Client) -> None:
         """Ask a loopback or pseudo-terminal target what it is (AD): `robostar sim` serves
         there, and a simulator must never pass for a robot. The read is not counted as sent."""
+        from robostar.commands.identity import is_simulator_identity
         from robostar.commands.status import ReadInfo
         from robostar.errors import RobostarError
 
@@ -260,9 +261,7 @@ class Session:
             return  # the command itself will meet and report the trouble
         finally:
             self.frames_sent = counted
-        # The built-in simulator's default identity ends in -SIM; a simulator configured with
-        # another name and version cannot be told from a robot over tcp:// or a pty.
-        if info.name.upper().endswith("-SIM") or info.version.upper().endswith("-SIM"):
+        if is_simulator_identity(info):  # whatever name and version its configuration gives
             self._served_simulator = True
             self.out.extra["simulator"] = True
 

@@ -311,12 +311,13 @@ def sim_alarm_clear(session: Session) -> None:
       robostar --port tcp://127.0.0.1:9100 sim alarm clear
     """
     from robostar.commands.control import ResetAlarms
+    from robostar.commands.identity import is_simulator_identity
 
     client = session.client
-    name = client.info().name
-    if not (session.simulator or name.upper().endswith("-SIM")):
+    info = client.info()
+    if not (session.simulator or is_simulator_identity(info)):
         raise UsageError(
-            f"--port: {session.port} is a real controller ({name}); clear its alarms with "
+            f"--port: {session.port} is a real controller ({info.name}); clear its alarms with "
             "`robostar reset` once the cause is fixed"
         )
     client.execute(ResetAlarms())

@@ -36,6 +36,7 @@ from robostar.client.exchange import Progress
 from robostar.client.files import NAME_RULE, download_job, download_points, point_lines
 from robostar.client.plan import Plan, call
 from robostar.commands.files import DeleteFile, DownloadFile, ListFiles, UploadFile
+from robostar.commands.identity import is_simulator_identity
 from robostar.commands.status import ReadInfo
 from robostar.errors import FieldError, RobostarError, UploadIncompleteError, UsageError
 from robostar.protocol.fields import FileName
@@ -302,11 +303,11 @@ def _stamp() -> str:
 
 
 def _is_simulator(target: str | None, info: ControllerInfo) -> bool | None:
-    """A simulator: a sim:// target, or a controller whose AD identity says so (the built-in
-    simulator's default name and version end in -SIM); None when neither is known."""
+    """A simulator: a sim:// target, or a controller whose AD identity says so (a simulator's
+    version always ends in -SIM); None when neither is known."""
     if target is not None and target.strip().lower().startswith("sim:"):
         return True
-    if info.name.upper().endswith("-SIM") or info.version.upper().endswith("-SIM"):
+    if is_simulator_identity(info):
         return True
     return False if target is not None else None
 

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 from os import PathLike
 from typing import Any
 
+from robostar.commands.identity import simulator_version
 from robostar.errors import UsageError
 from robostar.types import RobotType
 
@@ -165,6 +166,10 @@ class SimConfig:
     ``speedup``: model time runs this many times faster than real time. ``ack_timeout``: real
     seconds before the link resends an unacknowledged answer. ``io_boards``: input and output
     boards, 0-2 each (port 0 is the main board's; each board adds two ports).
+
+    ``version`` is the configured text; AD answers :attr:`served_version`, which always ends in
+    ``-SIM`` (robostar.commands.identity), so that a simulator renamed to look like a robot is
+    still known as a simulator over tcp:// or a pseudo-terminal.
     """
 
     name: str = "N1-SIM"
@@ -211,6 +216,13 @@ class SimConfig:
         from robostar.sim.dialects import dialect_named
 
         dialect_named(self.dialect)  # an unknown name is refused here, with the names
+
+    @property
+    def served_version(self) -> str:
+        """AD's VER: :attr:`version` ending in ``-SIM`` (added, and the text cut to fit the
+        20-byte field, when it does not). No setting removes it: a console tells a simulator
+        from a robot by it (robostar.commands.identity)."""
+        return simulator_version(self.version)
 
     # -- construction from text ------------------------------------------------------------
     @classmethod

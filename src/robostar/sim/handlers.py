@@ -65,8 +65,9 @@ def _info(model: Model) -> ControllerInfo:
             )
         else:
             channels.append(ChannelInfo(number, "", RobotType.NOT_DEFINED, 0, ()))
+    # The served version, never the configured one: it carries the simulator's mark.
     return ControllerInfo(
-        len(model.channels), model.config.name, model.config.version, tuple(channels)
+        len(model.channels), model.config.name, model.config.served_version, tuple(channels)
     )
 
 

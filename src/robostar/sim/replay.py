@@ -7,10 +7,15 @@ controller's frames that followed it there are sent back. Where the live host se
 the recording does not hold at that point, the replay sends nothing (the host times out, as it
 would against a controller that never heard of it) and notes a :class:`Divergence`.
 ``robostar sim --replay TRACE`` serves it on TCP like the simulator.
+
+A replay is a simulator too: the AD answers it plays back carry the simulator's mark in their
+version (:func:`mark_identity`), so that a recorded robot's identity cannot make a replay pass
+for the robot.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import logging
 import os
@@ -19,10 +24,21 @@ import threading
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
-from robostar.errors import UsageError
+from robostar.commands.identity import simulator_version
+from robostar.commands.status import ReadInfo
+from robostar.errors import RobostarError, UsageError
 from robostar.protocol.frame import Control, CorruptPacket, FrameDecoder, Packet, encode_packet
 
-__all__ = ["Divergence", "Recorded", "ReplayController", "load_trace", "serve_replay"]
+__all__ = [
+    "Divergence",
+    "Recorded",
+    "ReplayController",
+    "load_trace",
+    "mark_identity",
+    "serve_replay",
+]
+
+_AD_REQUEST = encode_packet(b"\xffAD")
 
 log = logging.getLogger(__name__)
 
@@ -81,11 +97,44 @@ def load_trace(path: str | os.PathLike[str]) -> list[Recorded]:
     return frames
 
 
+def mark_identity(frames: list[Recorded]) -> list[Recorded]:
+    """``frames`` with every AD answer's version ending in the simulator's mark.
+
+    An answer is an AD answer when it follows an AD request in the recording (resends
+    included); one that does not decode as such (a corrupt packet, an error flag) is played as
+    recorded, as it carries no identity a host could read.
+    """
+    marked: list[Recorded] = []
+    after_ad = False
+    for frame in frames:
+        if frame.direction == "tx" and frame.is_packet:
+            after_ad = frame.frame == _AD_REQUEST
+        elif frame.direction == "rx" and frame.is_packet and after_ad:
+            frame = Recorded(frame.direction, _marked_ad(frame.frame), frame.kind)
+        marked.append(frame)
+    return marked
+
+
+def _marked_ad(raw: bytes) -> bytes:
+    events = FrameDecoder().feed(raw)
+    if len(events) != 1 or not isinstance(events[0], Packet):
+        return raw
+    command = ReadInfo()
+    try:
+        info = command.decode_answer([events[0].data])
+        (data,) = command.encode_answer(
+            dataclasses.replace(info, version=simulator_version(info.version))
+        )
+    except RobostarError:
+        return raw
+    return encode_packet(data)
+
+
 class ReplayController:
     """A :class:`~robostar.transport.peer.BytePeer` that answers as the recording did."""
 
     def __init__(self, frames: list[Recorded] | str | os.PathLike[str]) -> None:
-        self.frames = load_trace(frames) if not isinstance(frames, list) else frames
+        self.frames = mark_identity(load_trace(frames) if not isinstance(frames, list) else frames)
         self.position = 0
         """The next recorded frame to match."""
         self.divergences: list[Divergence] = []

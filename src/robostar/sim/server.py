@@ -195,6 +195,17 @@ def _print_endpoints(endpoints: list[str]) -> None:
         print(endpoint, flush=True)
 
 
+def _say_version(config: SimConfig) -> None:
+    """Said, not silently done: whoever configured a robot's version learns why AD differs."""
+    note = (
+        f"the simulator answers AD with version {config.served_version!r}, not "
+        f"{config.version!r}: a simulator's version always ends in -SIM, so that no console "
+        "takes it for a robot (docs/simulator.md, Configuration)"
+    )
+    log.info("%s", note)
+    print(f"note: {note}", file=sys.stderr, flush=True)
+
+
 def build_lines(
     config: SimConfig,
     index: int = 0,
@@ -243,7 +254,8 @@ def serve(
     endpoints (``tcp://...`` URLs, device paths, ``control://...``) go to ``on_ready`` once all
     are up, else to stdout. Each TCP connection is an N1 session of its own, at most
     ``max_clients`` at once per controller; a non-loopback address (``allow_remote``) is
-    announced on stderr and in the log.
+    announced on stderr and in the log, and so is a configured version that AD serves with the
+    simulator's ``-SIM`` mark added (:attr:`SimConfig.served_version`).
     """
     from robostar.sim.config import SimConfig
 
@@ -251,6 +263,8 @@ def serve(
         config = SimConfig()
     if isinstance(count, bool) or not isinstance(count, int) or count < 1:
         raise UsageError(f"count: {count!r} is not 1 or more")
+    if config.served_version != config.version:
+        _say_version(config)
     if listen is None and not pty:
         raise UsageError("listen: nothing to serve; give an address to listen on or pty=True")
     address = parse_listen(listen) if listen is not None else None
