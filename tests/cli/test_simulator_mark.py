@@ -124,3 +124,19 @@ def test_sim_alarm_clear_works_on_a_simulator_configured_as_a_robot(
     result = run("sim", "alarm", "clear", port=port)
     assert result.exit_code == 0, result.output
     assert "SIMULATOR: alarms cleared." in result.stdout
+
+
+@needs_pty
+def test_a_simulator_behind_a_serial_name_of_its_own_is_asked_too(
+    run: Run, served: Serve, tmp_path: Path
+) -> None:
+    """Not only loopback TCP and /dev/pts: a simulator can sit behind any port name (a
+    null-modem cable's /dev/ttyUSB0, a udev link, another machine's TCP); every target but
+    sim:// is asked, so a port name proves nothing."""
+    pty = served(_robot_like_simulator(), pty=True)
+    link = tmp_path / "ttyN1"
+    link.symlink_to(pty)
+    result = run("status", port=str(link))
+    assert result.exit_code == 0, result.output
+    assert f"SIMULATOR | {link}" in result.stderr
+    assert "controller |" not in result.stderr

@@ -76,20 +76,6 @@ def describe_url(port: str) -> str:
     return port if given is not None else f"{port} (default port {DEFAULT_TCP_PORT})"
 
 
-def _maybe_served_simulator(port: str) -> bool:
-    """A target `robostar sim` may be serving: TCP on this machine, or a pseudo-terminal."""
-    from urllib.parse import urlsplit
-
-    lowered = port.strip().lower()
-    if lowered.startswith("tcp://"):
-        try:
-            host = urlsplit(lowered).hostname or ""
-        except ValueError:
-            return False
-        return host in ("localhost", "::1") or host.startswith("127.")
-    return lowered.startswith(("/dev/pts/", "serial:///dev/pts/"))
-
-
 def is_simulator(port: str) -> bool:
     """True for the built-in simulator's URLs."""
     return port.strip().lower().startswith("sim:")
@@ -227,7 +213,10 @@ class Session:
             if self.settings.trace:
                 self._trace_file = _open_trace(self.settings.trace)
             options["trace"] = self._on_frame
-            maybe_served = _maybe_served_simulator(port) and not is_simulator(port)
+            # Any target but sim:// may be a simulator: `robostar sim` serves TCP (on another
+            # machine too, with --allow-remote), pseudo-terminals, a serial port through a
+            # null-modem cable, and the line server passes its answers on. AD says which.
+            maybe_served = not is_simulator(port)
             if not maybe_served:
                 self._banner()  # SIMULATOR or controller, before anything is sent
             try:
@@ -248,8 +237,8 @@ class Session:
             self.out.note(self.banner(), style="bold magenta" if self.simulator else "dim")
 
     def _identify(self, client: Client) -> None:
-        """Ask a loopback or pseudo-terminal target what it is (AD): `robostar sim` serves
-        there, and a simulator must never pass for a robot. The read is not counted as sent."""
+        """Ask the target what it is (AD): a simulator must never pass for a robot, wherever
+        it is served. The read is not counted as sent."""
         from robostar.commands.identity import is_simulator_identity
         from robostar.commands.status import ReadInfo
         from robostar.errors import RobostarError
