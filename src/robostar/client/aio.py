@@ -181,8 +181,8 @@ class AsyncClient(AsyncOperations, ClientBase):
                     data = await transport.read(max(deadline - clock(), 0.0))
                 else:
                     data = await transport.read_answering(max(deadline - clock(), 0.0), answer)
-                    if exchange.done:  # taken, and ACKed, by answer_at_once
-                        continue
+                    if exchange.done:  # taken, and ACKed (nothing else to send), by answer_at_once
+                        return exchange
                 if data:
                     if traced:
                         self._traced_received(data)

@@ -221,15 +221,27 @@ class _ProtocolTransport(AsyncTransport):
         protocol = self._protocol
         if not self._own_read or protocol is None or protocol.buffer or protocol.lost:
             return await self.read(timeout)  # nothing to offer, or read() says what is wrong
+        if timeout <= 0:
+            return await self.read(timeout)
+        # read()'s wait, with the answerer in place while it lasts
+        loop = asyncio.get_running_loop()
         protocol.answer = answer
         try:
-            data = await self.read(timeout)
+            await protocol.wait_until(loop, loop.time() + timeout)
         finally:
+            protocol.waiter = None
             protocol.answer = None
-        failed, protocol.answer_failed = protocol.answer_failed, None
+        failed = protocol.answer_failed
         if failed is not None:
+            protocol.answer_failed = None
             raise await self._lost(failed) from failed
-        return data
+        if protocol.buffer:
+            data = bytes(protocol.buffer)
+            protocol.buffer.clear()
+            return data
+        if protocol.lost:
+            raise await self._lost(protocol.lost_reason)
+        return b""
 
     async def read(self, timeout: float) -> bytes:
         protocol = self._protocol
