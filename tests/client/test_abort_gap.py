@@ -77,9 +77,8 @@ def test_a_stop_after_an_abort_goes_out_within_the_short_gap(relay: DelayRelay) 
             return after_stop, relay.sent_at(CF) - relay.rst_at(), len(alarms)
 
     after_stop, stop_delay, alarms = asyncio.run(run())
-    # The stop goes out after abort_gap (50 ms), not the whole gap (TIMEOUT); some slack for
-    # a loaded machine.
+    # The stop goes out after abort_gap (50 ms), not the whole gap (TIMEOUT); slack for a
+    # loaded machine. (That it waits abort_gap at all: test_link_abort_gap.py.)
     assert stop_delay < TIMEOUT / 2
-    assert stop_delay >= 0.05 - 0.005
     assert alarms >= 1  # CF was carried out: "Host Emergency"
     assert after_stop == G20  # and nothing stale landed on the read after the stop
