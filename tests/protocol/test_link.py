@@ -734,7 +734,8 @@ def test_fb_new_request_mid_upload_supersedes_it() -> None:
     pair.answer([FB_OK], After.UPLOAD)
     pair.take()
     # The host gave up (its RST was lost) and asks something else; the request waits for the
-    # end of the host's quiet gap after its own abort (abort_gap, shorter than resync_gap).
+    # end of the host's whole quiet gap, after its own abort too (only a stop goes out after
+    # abort_gap, shorter than resync_gap).
     assert pair.host.abort_gap < pair.host.resync_gap
     pair.host.abort(0.0)
     assert pair.host.data_to_send() == RST_B
@@ -742,10 +743,11 @@ def test_fb_new_request_mid_upload_supersedes_it() -> None:
     pair.request(AA)
     assert pair.take() == ([], [])
     assert pair.host.state is State.RESYNC
-    pair.at(pair.host.abort_gap - 0.0001)
+    pair.at(pair.host.abort_gap)
+    pair.at(pair.host.resync_gap - 0.0001)
     assert pair.take() == ([], [])
     assert pair.to_ctl == [frame(FB)]
-    pair.at(pair.host.abort_gap)
+    pair.at(pair.host.resync_gap)
     _, ctl = pair.take()
     assert pair.to_ctl[-1] == frame(AA)
     assert [type(e) for e in ctl] == [ExchangeFailed, RequestReceived]
@@ -974,7 +976,8 @@ def test_host_abort_sends_rst_and_the_controller_returns_to_listen() -> None:
     ]
     assert pair.host.data_to_send() == RST_B
     assert pair.host.state is State.RESYNC
-    assert pair.host.next_deadline() == pytest.approx(0.1 + pair.host.abort_gap)
+    # The whole quiet gap (AB is no stop): an answer may still be on its way.
+    assert pair.host.next_deadline() == pytest.approx(0.1 + pair.host.resync_gap)
     ctl_events = pair.ctl.receive_data(RST_B, 0.1)
     assert [(f.reason, f.state) for f in failures(ctl_events)] == [
         (FailReason.RESET, State.WAIT_ACK)
@@ -1320,11 +1323,12 @@ def test_new_request_while_working_supersedes_the_second_phase() -> None:
     assert pair.host.data_to_send() == RST_B  # lost
     pair.take()
     pair.now = 1.0
-    pair.request(AA)  # deferred to the end of the host's quiet gap after its abort
-    assert pair.take() == ([], [])
-    pair.at(1.0 + pair.host.abort_gap - 0.0001)
+    pair.request(AA)  # deferred to the end of the host's whole quiet gap after its abort
     assert pair.take() == ([], [])
     pair.at(1.0 + pair.host.abort_gap)
+    pair.at(1.0 + pair.host.resync_gap - 0.0001)
+    assert pair.take() == ([], [])
+    pair.at(1.0 + pair.host.resync_gap)
     _, ctl = pair.take()
     assert pair.to_ctl[-1] == frame(AA)
     assert [(f.reason, f.state) for f in failures(ctl)] == [(FailReason.SUPERSEDED, State.WORKING)]
@@ -1955,9 +1959,10 @@ def test_every_rst_the_host_sends_starts_the_gap(key: tuple[State, Input]) -> No
     assert events == [failed]
     assert link.data_to_send() == RST_B
     assert link.state is State.RESYNC
-    # After its own abort the host waits only for bytes already in flight (abort_gap).
+    # After its own abort too the host waits the whole gap (only a stop may go out after
+    # abort_gap: test_link_abort_gap.py).
     assert isinstance(link, HostLink)
-    gap = link.abort_gap if what is Input.ABORT else GAP
+    gap = GAP
     assert link.next_deadline() == pytest.approx(now + gap)
     assert not link.idle and not link.busy
     assert link.decoder.pending == 0

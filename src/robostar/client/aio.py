@@ -11,7 +11,7 @@ from typing import Any, Self, TypeVar, cast
 
 from robostar.client._async_face import AsyncOperations
 from robostar.client.core import DRAIN_READS, ClientBase, Settings, check_keepalive
-from robostar.client.driver import NOT_DECODED, command_plan, decoded_at_once
+from robostar.client.driver import NOT_DECODED, command_plan, decoded_at_once, note_cancelled
 from robostar.client.exchange import Exchange, Progress
 from robostar.client.jog import AsyncJog, jog_start
 from robostar.client.locks import AsyncPriorityLock
@@ -191,9 +191,11 @@ class AsyncClient(AsyncOperations, ClientBase):
                     exchange.tick(clock())
         except PortError as exc:
             raise self._line_lost(command, exc, written) from exc
-        except BaseException:
+        except BaseException as exc:
             # A cancelled task, Ctrl-C, a callback's error: end the exchange with RST.
             exchange.abort(clock())
+            if isinstance(exc, asyncio.CancelledError):  # it propagates, with a note
+                note_cancelled(exc, command, written)
             out = exchange.output()
             if out and transport.is_open:
                 try:

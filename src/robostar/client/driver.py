@@ -14,6 +14,7 @@
 from __future__ import annotations
 
 import enum
+import logging
 from collections.abc import Generator
 from dataclasses import dataclass
 from typing import Any, TypeVar, cast
@@ -47,8 +48,11 @@ __all__ = [
     "command_plan",
     "decode",
     "decoded_at_once",
+    "note_cancelled",
     "upload_matches",
 ]
+
+log = logging.getLogger("robostar")
 
 T = TypeVar("T")
 CommandPlan = Generator[Command[Any], Outcome, T]
@@ -126,6 +130,27 @@ def failure_error(command: Command[Any], failure: ExchangeFailed, policy: Policy
         # controller carried it out.
         return OutcomeUnknownError(code, failure.detail or reason.value)
     return LinkResetError(code, failure.detail or reason.value)
+
+
+def note_cancelled(exc: BaseException, command: Command[Any], sent: bool) -> None:
+    """A state change cancelled mid-exchange (an asyncio task): put on the error itself, as a
+    PEP 678 note, whether the controller may have carried it out, and log that at WARNING on
+    the ``robostar`` logger. The cancellation is not swallowed nor replaced: asyncio's rules
+    hold, and only the note is added. ``sent``: the request may have reached the wire. A
+    command that changes nothing needs no note."""
+    if not command.CHANGES_STATE:
+        return
+    what = f"{command.CODE} ({type(command).__name__})"
+    if sent:
+        note = (
+            f"robostar: {what} was cancelled after its request was sent: the outcome is "
+            "unknown - the controller may or may not have carried it out; check its state "
+            "before sending it again"
+        )
+    else:
+        note = f"robostar: {what} was cancelled before its request was sent: not carried out"
+    exc.add_note(note)
+    log.warning("%s", note)
 
 
 class _NotDecoded(enum.Enum):

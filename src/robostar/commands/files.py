@@ -65,6 +65,9 @@ ALARM_FILE_WIDTH = 30
 ALARM_HEADER = "NO.\tERROR TIME\tCH ERROR MSG\t(CODE) "
 ALARM_RECORD_MAX = 76
 ALARM_CHANNELS = (1, 2, 3, 9)
+ALARM_PAGES = 10
+ALARM_RECORDS_PER_PAGE = 10
+"""FH: the manual sends "ERR Page1-1" to "ERR Page10-10", at most ten records a page."""
 
 
 # -- shared field helpers ------------------------------------------------------------------
@@ -366,6 +369,9 @@ class ListFiles(Command[tuple[FileRecord, ...]]):
     CODE = "FD"
     SHAPE = Shape.MULTI
     ANSWER_DUMMY = True
+    MAX_PACKETS = 2 * (JOB_NUMBER.hi + 1) + 1
+    """``*`` lists a channel's JOB files and their PNT files: JOB numbers run 0-200 (FB), so at
+    most 201 of each, and END (403 packets)."""
     channel: int
     pattern: str
 
@@ -561,6 +567,8 @@ class ReadAlarmHistory(Command[tuple[AlarmRecord, ...]]):
     CODE = "FH"
     SHAPE = Shape.MULTI
     ANSWER_DUMMY = True
+    MAX_PACKETS = 1 + ALARM_PAGES * ALARM_RECORDS_PER_PAGE + 1
+    """The header, ten pages of ten records, END (102 packets)."""
 
     def encode_params(self) -> bytes:
         return STORAGE + encode_text(self.CODE, "file name", ALARM_FILE, ALARM_FILE_WIDTH)

@@ -19,6 +19,12 @@ PUBLIC = 4
 """KE's channel code for the public parameters (PUB_PARA)."""
 ALL = -1
 """KE's index for "all data"."""
+MAX_INDEX = 99
+"""KE's index is two digits: groups 1-99 (the manual's tables use 1-98)."""
+KE_PACKETS_PER_INDEX = 10
+"""The most packets one KE group may take. The manual leaves each packet's layout open ("the
+data's length depends on what is asked"); its largest groups hold a value per axis (6 axes),
+so ten packets of up to 245 bytes (2,450 bytes a group) is well over any of them."""
 
 
 def _text(command: str, field: str, text: str) -> bytes:
@@ -46,7 +52,7 @@ class ReadLastError(NoParams, Command[str]):
 
 
 def _check_index(command: str, index: int) -> int:
-    check_range(command, "index", index, ALL, 99)
+    check_range(command, "index", index, ALL, MAX_INDEX)
     if index == 0:
         raise FieldError(command, "index", "0 is not an index: use -1 (all) or 1-99")
     return index
@@ -65,6 +71,8 @@ class ReadParameters(Command[tuple[str, ...]]):
     CODE = "KE"
     SHAPE = Shape.MULTI
     ANSWER_DUMMY = True
+    MAX_PACKETS = MAX_INDEX * KE_PACKETS_PER_INDEX + 1
+    """``-1`` asks for every group (indexes 1-99), each of up to ten packets, then END (991)."""
     channel: int | None
     index: int = ALL
 

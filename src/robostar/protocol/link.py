@@ -38,6 +38,7 @@ from robostar.protocol.frame import (
 from robostar.protocol.packets import Shape, split_answer
 
 __all__ = [
+    "STOP_CODES",
     "TRANSITIONS",
     "After",
     "AnswerReceived",
@@ -67,6 +68,10 @@ MAX_ANNOUNCED_WAIT = 99.0
 MAX_MULTI_PACKETS = 10_002
 """Packets a multi-packet answer may take when the request does not say (a 9999-step job with
 its announcement and END); past it the answer is cut with RST."""
+STOP_CODES = frozenset((b"CF", b"CD", b"CI", b"BG"))
+"""The stops (CF emergency stop, CD job stop, CI homing stop, BG jog stop; the line server's
+``STOPS``): the only requests let out ``abort_gap`` after this end's own abort, before the
+whole quiet gap. Each answers a bare flag."""
 MAX_BACKLOG = 64
 """Frames held for an application that has its turn when more arrive (requests pipelined
 behind the one being handled); more are dropped and counted in ``overrun_frames``."""
@@ -643,8 +648,13 @@ class HostLink(Link):
     each NAK allowed and the answer, ``timeout + resend_grace`` for each packet a multi-packet
     answer may hold (``max_packets``), and a two-phase answer's announced work time (two
     digits, at most ``max_wait`` s). After this end's own RST of an exchange (``abort``) the
-    quiet gap is ``abort_gap``: the controller stops at the RST, so only bytes already in
-    flight can follow, and a stop that pre-empts a transfer goes out at once.
+    quiet gap is the whole ``resync_gap`` too (an answer held back by a device server can still
+    be on its way), but a stop (:data:`STOP_CODES`) goes out once the line has been quiet for
+    ``abort_gap``, so that a stop pre-empting a transfer is not held back. An answer packet
+    with data (or an END) during such an early stop is stale, as a stop answers a bare flag:
+    it is ignored. After the early stop's exchange the whole gap runs again before any other
+    request, so that the stop's own answer, if a stale one was taken in its place, is stopped
+    with RST instead of landing on the next request.
     """
 
     role = Role.HOST
@@ -679,6 +689,9 @@ class HostLink(Link):
         self._maybe_answer = b""  # a read's copy taken for a resend, delivered if nothing else
         self._last_reply = b""  # FB: the controller's last reply to one of our packets
         self._aborting = False
+        self._quiet_at = 0.0  # RESYNC: when the line will have been quiet for the whole gap
+        self._stop_at: float | None = None  # RESYNC after our abort: when a stop may go out
+        self._stop_early = False  # the exchange open is a stop sent before the gap was over
         self._request_data: bytes | None = None  # the last request sent, and its frame
         self._request_frame = b""
 
@@ -726,6 +739,7 @@ class HostLink(Link):
             or type(data) is not bytes
             or self._backlog
             or not self.decoder.between_frames
+            or self._stop_early
         ):
             return None
         packet = lone_frame(data)
@@ -828,6 +842,8 @@ class HostLink(Link):
         self._deadline = None  # Link._finish, inline: every exchange ends here
         self.state = self._idle
         self._events.append(event)
+        if self._stop_early:
+            self._after_early_stop()
 
     def _fail(
         self,
@@ -839,23 +855,51 @@ class HostLink(Link):
     ) -> None:
         self._limit_at = None
         super()._fail(reason, detail, send_rst=send_rst, error=error)
+        if self._stop_early:
+            self._after_early_stop()
 
     def _after_rst(self) -> None:
         self._last_received = b""  # nothing of an exchange we reset is to be ACKed again
-        # After our own abort the controller stops at the RST: only bytes already in flight
-        # can follow, so a short gap does (a stop pre-empting a transfer goes out at once).
-        # After a timeout or a broken rule, an answer may still be held back anywhere on the
-        # way: the whole gap.
-        gap = self.abort_gap if self._aborting else self.resync_gap
+        # An answer may still be on its way, held back anywhere (a device server with 0.3 s
+        # of latency holds it longer than any short gap): the whole gap, after our own abort
+        # too, else that answer lands on the next request. Only a stop may go out sooner
+        # after our abort (``abort_gap``): a stop pre-empting a transfer must not wait, and
+        # stale data cannot pass for its bare-flag answer (see _h_answer).
+        gap = self.resync_gap
+        if self._aborting:
+            gap = max(gap, self.abort_gap)
+            self._stop_at = self._now + self.abort_gap
+        else:
+            self._stop_at = None
+        self._stop_early = False  # the RST ended it: the resync now decides
         if gap > 0:
-            self.state = State.RESYNC
-            # However chatty the line, the resync ends by then (a request deferred meanwhile
-            # waits no longer): a controller resending an unacknowledged answer has given up
-            # after its last resend, and what still comes is not a resend.
-            self._resync_until = (
-                self._now + (MAX_RESENDS + 1) * self.peer_resend_after + (self.resend_grace)
-            )
-            self._arm(gap)
+            self._enter_resync(gap)
+
+    def _enter_resync(self, gap: float) -> None:
+        self.state = State.RESYNC
+        # However chatty the line, the resync ends by then (a request deferred meanwhile
+        # waits no longer): a controller resending an unacknowledged answer has given up
+        # after its last resend, and what still comes is not a resend.
+        self._resync_until = (
+            self._now + (MAX_RESENDS + 1) * self.peer_resend_after + (self.resend_grace)
+        )
+        self._quiet_at = self._now + gap
+        self._deadline = self._quiet_at
+
+    def _after_early_stop(self) -> None:
+        """A stop that went out before the quiet gap was over has ended: the whole gap again
+        before anything else. Its answer may have been a stale one (a bare flag of the aborted
+        exchange), and then its own answer is still coming: in the gap it meets RST, never the
+        next request. Further stops still go out at once."""
+        self._stop_early = False
+        if self.state is State.IDLE and self.resync_gap > 0:
+            self._enter_resync(self.resync_gap)
+            self._stop_at = self._now
+
+    def _is_stop_now(self, data: bytes) -> bool:
+        """In the gap after our own abort: may this request go out now, before the gap ends?"""
+        stop_at = self._stop_at
+        return stop_at is not None and data[1:3] in STOP_CODES and self._now >= stop_at
 
     def _abort(self, data: bytes) -> None:
         self._aborting = True
@@ -869,18 +913,37 @@ class HostLink(Link):
             raise LinkRuleError("host", self.state.value, Input.SEND_REQUEST.value, "one waits")
         encode_packet(data)  # a bad request is refused now, not when the gap ends
         self._deferred = (data, self._pending_shape, self._pending_once, self._pending_max)
+        if self._stop_at is not None and data[1:3] in STOP_CODES:
+            if self._is_stop_now(data):
+                self._send_deferred(early=True)
+            else:  # wake when a stop may go
+                self._deadline = min(self._quiet_at, self._stop_at)
 
     def _h_drop_deferred(self, data: bytes) -> None:
         if self._deferred is not None:
             self._deferred = None
+            self._deadline = self._quiet_at  # no stop waits any more
             self._emit(ExchangeFailed(FailReason.ABORTED, self.state, "aborted before it was sent"))
 
     def _h_resync_done(self, data: bytes) -> None:
+        if self._now < self._quiet_at:
+            # Woken before the gap's end for a stop waiting for ``abort_gap``.
+            deferred = self._deferred
+            if deferred is not None and self._is_stop_now(deferred[0]):
+                self._send_deferred(early=True)
+            else:
+                self._deadline = self._quiet_at
+            return
+        self._send_deferred(early=False)
+
+    def _send_deferred(self, *, early: bool) -> None:
         self.state = State.IDLE
+        self._stop_at = None
         deferred, self._deferred = self._deferred, None
         if deferred is not None:
             data, self._pending_shape, self._pending_once, self._pending_max = deferred
             self._h_send_request(data)
+            self._stop_early = early
 
     def _h_stray_packet(self, data: bytes) -> None:
         # An intact packet outside an exchange. A copy of the last answer we ACKed is the
@@ -908,8 +971,18 @@ class HostLink(Link):
         self._emit(Ignored("corrupt frame in the resync gap", self.state))
 
     def _rearm_resync(self) -> None:
-        """The line is not quiet: wait the whole gap again, but not past the resync's end."""
-        self._arm(max(0.0, min(self.resync_gap, self._resync_until - self._now)))
+        """The line is not quiet: wait the whole gap again, but not past the resync's end (a
+        stop after our abort: ``abort_gap`` again, within the same bound)."""
+        now = self._now
+        left = max(0.0, self._resync_until - now)
+        self._quiet_at = now + min(self.resync_gap, left)
+        self._deadline = self._quiet_at
+        stop_at = self._stop_at
+        if stop_at is not None:
+            self._stop_at = max(stop_at, now + min(self.abort_gap, left))
+            deferred = self._deferred
+            if deferred is not None and deferred[0][1:3] in STOP_CODES:
+                self._deadline = min(self._quiet_at, self._stop_at)
 
     def _is_resend(self, data: bytes, now: float) -> bool:
         """Is ``data``, arriving at ``now``, the controller resending the answer we ACKed last
@@ -937,6 +1010,11 @@ class HostLink(Link):
 
     def _h_answer(self, data: bytes) -> None:
         self._corrupt = 0  # _good_packet(), inline
+        if self._stop_early and (_flag_of(data) == FLAG_END or split_answer(data).body):
+            # A stop answers a bare flag: data (or an END) is the aborted exchange's, still
+            # arriving. Not ACKed (the controller dropped that exchange at our RST).
+            self._emit(Ignored("stale packet with data in a stop's answer", self.state))
+            return
         if data == self._last_received and self._is_resend(data, self._now):
             self._ack(data)
             self._emit(Ignored("resent answer (ACKed again)", self.state))
