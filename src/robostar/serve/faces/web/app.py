@@ -612,8 +612,8 @@ def _file_name(text: str) -> FileName:
 
 
 def _steps(name: FileName, text: str) -> tuple[str, ...]:
-    """An uploaded file's lines, as FB will send them; a JOB of more steps than a controller
-    holds (FA could not even announce its length) is refused before anything is sent."""
+    """An uploaded file's lines, as FB will send them; a JOB of more steps than the protocol
+    counts (FA could not even announce its length) is refused before anything is sent."""
     lines = tuple(text.splitlines())
     if name.is_job and len(lines) > MAX_STEP:
         raise _Forbidden(400, f"{name} has {len(lines)} lines; a job holds at most {MAX_STEP}")
