@@ -1,15 +1,27 @@
-"""A real Mosquitto per test on a free loopback port (Debian's ``mosquitto``; CI installs it)."""
+"""A real Mosquitto per test on a free loopback port (Debian's ``mosquitto``; CI installs it),
+and the set-up the command tests share: a line server whose MQTT face takes commands
+(:func:`serving`) and an MQTT 5 client that sends them and keeps the replies (:class:`Requester`).
+"""
 
 from __future__ import annotations
 
+import asyncio
+import contextlib
+import json
 import shutil
 import socket
 import subprocess
 import time
-from collections.abc import Iterator
+from collections.abc import AsyncIterator, Callable, Iterator
 from pathlib import Path
+from typing import Any
 
+import aiomqtt
 import pytest
+from paho.mqtt.packettypes import PacketTypes
+from paho.mqtt.properties import Properties
+
+from robostar.serve import LineConfig, LineServer, ServeConfig
 
 MOSQUITTO = shutil.which("mosquitto") or (
     "/usr/sbin/mosquitto" if Path("/usr/sbin/mosquitto").exists() else None
@@ -74,3 +86,97 @@ def broker(tmp_path: Path) -> Iterator[Broker]:
         yield b
     finally:
         b.stop()
+
+
+async def until(check: Callable[[], bool], seconds: float = 10.0) -> None:
+    end = time.monotonic() + seconds
+    while not check():
+        if time.monotonic() > end:
+            raise AssertionError("the condition did not come true in time")
+        await asyncio.sleep(0.02)
+
+
+RESULTS = "robostar/cell1/cmd/+/result"
+
+
+def commands_config(broker: Broker, audit: Path, **commands: Any) -> ServeConfig:
+    """One ``sim://`` line, the MQTT face with commands on (``speed`` allowed unless ``allow``
+    says otherwise; ``commands`` are the ``[mqtt.commands]`` options), the audit log."""
+    options = {"enabled": True, "allow": ["speed"], **commands}
+    return ServeConfig(
+        lines=(LineConfig("cell1", "sim://?speedup=20", poll_interval=0.05),),
+        faces={"mqtt": {"url": broker.url, "client_id": "cell-robostar", "commands": options}},
+        audit_path=str(audit),
+    )
+
+
+async def connected(server: LineServer) -> Any:
+    """The MQTT face's link of ``cell1``, once it is connected to the broker."""
+    link = server.faces["mqtt"].links["cell1"]  # type: ignore[attr-defined]
+    await until(lambda: link.client is not None)
+    return link
+
+
+@contextlib.asynccontextmanager
+async def serving(
+    broker: Broker, audit: Path, **commands: Any
+) -> AsyncIterator[tuple[LineServer, Any]]:
+    """A running line server of :func:`commands_config`, and its connected MQTT link."""
+    async with LineServer(commands_config(broker, audit, **commands)) as server:
+        yield server, await connected(server)
+
+
+class Requester:
+    """An MQTT 5 client that sends commands and keeps every reply (topic, body, correlation)."""
+
+    def __init__(self, client: aiomqtt.Client) -> None:
+        self.client = client
+        self.replies: list[tuple[str, dict[str, Any], bytes | None]] = []
+
+    @classmethod
+    @contextlib.asynccontextmanager
+    async def connect(cls, broker: Broker, *patterns: str) -> AsyncIterator[Requester]:
+        """Connected and subscribed to ``patterns`` (the result topics and ``replies/#``)
+        while the block runs."""
+        async with contextlib.AsyncExitStack() as stack:
+            client = aiomqtt.Client(
+                "127.0.0.1",
+                broker.port,
+                protocol=aiomqtt.ProtocolVersion.V5,
+                max_queued_outgoing_messages=None,
+            )
+            await stack.enter_async_context(client)
+            for pattern in patterns or (RESULTS, "replies/#"):
+                await client.subscribe(pattern, qos=1)
+            requester = cls(client)
+            task = asyncio.create_task(requester._collect())
+            stack.callback(task.cancel)
+            yield requester
+
+    async def _collect(self) -> None:
+        async for message in self.client.messages:
+            raw = message.payload
+            assert isinstance(raw, bytes)
+            corr = getattr(message.properties, "CorrelationData", None)
+            self.replies.append((str(message.topic), json.loads(raw), corr))
+
+    def by_id(self, request_id: Any) -> list[tuple[str, dict[str, Any], bytes | None]]:
+        return [r for r in self.replies if r[1].get("id") == request_id]
+
+    async def send(
+        self,
+        name: str,
+        payload: bytes,
+        *,
+        response_topic: str | None = None,
+        correlation: bytes | None = None,
+        qos: int = 1,
+    ) -> None:
+        props = None
+        if response_topic is not None or correlation is not None:
+            props = Properties(PacketTypes.PUBLISH)  # type: ignore[no-untyped-call]
+            if response_topic is not None:
+                props.ResponseTopic = response_topic
+            if correlation is not None:
+                props.CorrelationData = correlation
+        await self.client.publish(f"robostar/cell1/cmd/{name}", payload, qos=qos, properties=props)

@@ -5,95 +5,26 @@ that cannot be published to, payloads that are not parameters, and a flood of co
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import gc
 import json
 from pathlib import Path
 from typing import Any
 
-import aiomqtt
 import pytest
-from paho.mqtt.packettypes import PacketTypes
-from paho.mqtt.properties import Properties
 
 from robostar.commands.control import ReadSpeed
-from robostar.serve import LineConfig, LineServer, ServeConfig
 from robostar.serve.faces.mqtt.commands import read_params
 from robostar.serve.faces.mqtt.topics import response_topic_problem
 
-from .conftest import Broker
-from .test_mqtt_face import _until
+from .conftest import RESULTS, Broker, Requester, serving, until
 
 pytestmark = pytest.mark.timeout(180)
-
-RESULTS = "robostar/cell1/cmd/+/result"
-
-
-def _config(broker: Broker, audit: Path, **commands: Any) -> ServeConfig:
-    options = {"enabled": True, "allow": ["speed"], **commands}
-    return ServeConfig(
-        lines=(LineConfig("cell1", "sim://?speedup=20", poll_interval=0.05),),
-        faces={"mqtt": {"url": broker.url, "client_id": "cell-robostar", "commands": options}},
-        audit_path=str(audit),
-    )
 
 
 def _audit(path: Path) -> list[dict[str, Any]]:
     if not path.exists():
         return []
     return [json.loads(line) for line in path.read_text().splitlines()]
-
-
-class Requester:
-    """An MQTT 5 client that sends commands and keeps every reply (topic, body, correlation)."""
-
-    def __init__(self, client: aiomqtt.Client) -> None:
-        self.client = client
-        self.replies: list[tuple[str, dict[str, Any], bytes | None]] = []
-
-    @classmethod
-    async def start(cls, broker: Broker, stack: Any, *patterns: str) -> Requester:
-        client = aiomqtt.Client(
-            "127.0.0.1",
-            broker.port,
-            protocol=aiomqtt.ProtocolVersion.V5,
-            max_queued_outgoing_messages=None,
-        )
-        await stack.enter_async_context(client)
-        for pattern in patterns or (RESULTS, "replies/#"):
-            await client.subscribe(pattern, qos=1)
-        requester = cls(client)
-        task = asyncio.create_task(requester._collect())
-        stack.callback(task.cancel)
-        return requester
-
-    async def _collect(self) -> None:
-        async for message in self.client.messages:
-            raw = message.payload
-            assert isinstance(raw, bytes)
-            corr = getattr(message.properties, "CorrelationData", None)
-            self.replies.append((str(message.topic), json.loads(raw), corr))
-
-    def by_id(self, request_id: Any) -> list[tuple[str, dict[str, Any], bytes | None]]:
-        return [r for r in self.replies if r[1].get("id") == request_id]
-
-    async def send(
-        self,
-        name: str,
-        payload: bytes,
-        *,
-        response_topic: str | None = None,
-        correlation: bytes | None = None,
-        qos: int = 1,
-    ) -> None:
-        props = None
-        if response_topic is not None or correlation is not None:
-            props = Properties(PacketTypes.PUBLISH)  # type: ignore[no-untyped-call]
-            if response_topic is not None:
-                props.ResponseTopic = response_topic
-            if correlation is not None:
-                props.CorrelationData = correlation
-        await self.client.publish(f"robostar/cell1/cmd/{name}", payload, qos=qos, properties=props)
 
 
 class LostTaskErrors:
@@ -110,12 +41,6 @@ class LostTaskErrors:
         assert self.reports == []
 
 
-async def _connected(server: LineServer) -> Any:
-    link = server.faces["mqtt"].links["cell1"]  # type: ignore[attr-defined]
-    await _until(lambda: link.client is not None)
-    return link
-
-
 def test_a_response_topic_with_a_wildcard_is_refused_before_the_command_runs(
     broker: Broker, tmp_path: Path
 ) -> None:
@@ -124,16 +49,14 @@ def test_a_response_topic_with_a_wildcard_is_refused_before_the_command_runs(
 
     async def main() -> None:
         lost.install()
-        async with LineServer(_config(broker, audit)) as server:
-            await _connected(server)
-            async with contextlib.AsyncExitStack() as stack:
-                req = await Requester.start(broker, stack)
+        async with serving(broker, audit) as (server, _):
+            async with Requester.connect(broker) as req:
                 for n, topic in enumerate(("replies/#", "replies/+/me", "$SYS/me", ""), 1):
                     body = {"channel": 1, "value": 77, "id": n}
                     await req.send(
                         "speed", json.dumps(body).encode(), response_topic=topic, correlation=b"c"
                     )
-                    await _until(lambda: req.by_id(n) != [])  # noqa: B023
+                    await until(lambda: req.by_id(n) != [])  # noqa: B023
                     [(where, reply, corr)] = req.by_id(n)
                     # Refused, answered on the default result topic, with the correlation data.
                     assert where == "robostar/cell1/cmd/speed/result"
@@ -149,7 +72,7 @@ def test_a_response_topic_with_a_wildcard_is_refused_before_the_command_runs(
                     response_topic="replies/me",
                     correlation=b"d",
                 )
-                await _until(lambda: req.by_id("ok") != [])
+                await until(lambda: req.by_id("ok") != [])
                 [(where, reply, corr)] = req.by_id("ok")
                 assert (where, reply, corr) == (
                     "replies/me",
@@ -185,23 +108,20 @@ def test_payloads_that_are_not_parameters_get_a_bad_payload_reply(
 
     async def main() -> None:
         lost.install()
-        async with LineServer(_config(broker, audit)) as server:
-            await _connected(server)
-            async with contextlib.AsyncExitStack() as stack:
-                req = await Requester.start(broker, stack)
-                for n, payload in enumerate(payloads.values()):
-                    # The payload carries no id: correlation data tells the replies apart.
-                    await req.send("speed", payload, correlation=str(n).encode())
-                    await _until(lambda: any(r[2] == str(n).encode() for r in req.replies))  # noqa: B023
-                for n, name in enumerate(payloads):
-                    [(_, reply, _)] = [r for r in req.replies if r[2] == str(n).encode()]
-                    assert reply["ok"] is False, name
-                    assert reply["error"].startswith("bad payload"), (name, reply)
-                    assert reply["kind"] == "UsageError"
-                # The face still takes commands.
-                await req.send("speed", b'{"channel": 1, "value": 12, "id": "after"}')
-                await _until(lambda: req.by_id("after") != [])
-                assert req.by_id("after")[0][1]["ok"] is True
+        async with serving(broker, audit), Requester.connect(broker) as req:
+            for n, payload in enumerate(payloads.values()):
+                # The payload carries no id: correlation data tells the replies apart.
+                await req.send("speed", payload, correlation=str(n).encode())
+                await until(lambda: any(r[2] == str(n).encode() for r in req.replies))  # noqa: B023
+            for n, name in enumerate(payloads):
+                [(_, reply, _)] = [r for r in req.replies if r[2] == str(n).encode()]
+                assert reply["ok"] is False, name
+                assert reply["error"].startswith("bad payload"), (name, reply)
+                assert reply["kind"] == "UsageError"
+            # The face still takes commands.
+            await req.send("speed", b'{"channel": 1, "value": 12, "id": "after"}')
+            await until(lambda: req.by_id("after") != [])
+            assert req.by_id("after")[0][1]["ok"] is True
         refusals = [e for e in _audit(audit) if e["outcome"].startswith("refused: bad payload")]
         assert len(refusals) == len(payloads)
         assert "over the limit" in refusals[0]["outcome"]
@@ -214,16 +134,13 @@ def test_allowlist_and_parameter_refusals_are_audited(broker: Broker, tmp_path: 
     audit = tmp_path / "audit.jsonl"
 
     async def main() -> None:
-        async with LineServer(_config(broker, audit)) as server:
-            await _connected(server)
-            async with contextlib.AsyncExitStack() as stack:
-                req = await Requester.start(broker, stack)
-                await req.send("output", b'{"port": 1, "contact": 1, "on": true, "id": 1}')
-                await req.send("speed", b'{"channel": 1, "value": 5000, "id": 2}')
-                await req.send("speed", b'{"channel": "one", "value": 5, "id": 3}')
-                await req.send("fly", b'{"id": 4}')
-                await _until(lambda: all(req.by_id(n) for n in (1, 2, 3, 4)))
-                assert all(not req.by_id(n)[0][1]["ok"] for n in (1, 2, 3, 4))
+        async with serving(broker, audit), Requester.connect(broker) as req:
+            await req.send("output", b'{"port": 1, "contact": 1, "on": true, "id": 1}')
+            await req.send("speed", b'{"channel": 1, "value": 5000, "id": 2}')
+            await req.send("speed", b'{"channel": "one", "value": 5, "id": 3}')
+            await req.send("fly", b'{"id": 4}')
+            await until(lambda: all(req.by_id(n) for n in (1, 2, 3, 4)))
+            assert all(not req.by_id(n)[0][1]["ok"] for n in (1, 2, 3, 4))
         entries = _audit(audit)
         assert all(e["face"] == "mqtt" and e["who"] == "cell-robostar" for e in entries)
         outcomes = sorted((e["what"], e["outcome"]) for e in entries)  # refused in any order
@@ -242,8 +159,7 @@ def test_an_audit_log_that_fails_does_not_end_the_reader(broker: Broker, tmp_pat
     audit = tmp_path / "audit.jsonl"
 
     async def main() -> None:
-        async with LineServer(_config(broker, audit)) as server:
-            link = await _connected(server)
+        async with serving(broker, audit) as (server, link):
             line = server.lines["cell1"]
             real = line.record
 
@@ -253,12 +169,11 @@ def test_an_audit_log_that_fails_does_not_end_the_reader(broker: Broker, tmp_pat
                 real(what, who, outcome)
 
             line.record = record  # type: ignore[method-assign]
-            async with contextlib.AsyncExitStack() as stack:
-                req = await Requester.start(broker, stack)
+            async with Requester.connect(broker) as req:
                 await req.send("output", b'{"id": 1}')  # refused by the reader itself
-                await _until(lambda: req.by_id(1) != [])
+                await until(lambda: req.by_id(1) != [])
                 await req.send("speed", b'{"channel": 1, "value": 21, "id": 2}')
-                await _until(lambda: req.by_id(2) != [])
+                await until(lambda: req.by_id(2) != [])
                 assert req.by_id(1)[0][1]["ok"] is False and req.by_id(2)[0][1]["ok"] is True
             assert link.client is not None
 
@@ -271,23 +186,23 @@ def test_a_full_command_queue_refuses_busy_but_stops_have_their_own(
     audit = tmp_path / "audit.jsonl"
 
     async def main() -> None:
-        config = _config(broker, audit, allow=["speed", "stop_job"], estop=True, max_pending=3)
-        async with LineServer(config) as server:
-            link = await _connected(server)
-            async with contextlib.AsyncExitStack() as stack:
-                req = await Requester.start(broker, stack)
-                link.lanes["commands"].pending = 3  # as if three commands waited
-                await req.send("speed", b'{"channel": 1, "value": 9, "id": "busy"}')
-                await req.send("estop", b'{"id": "estop"}')
-                await _until(lambda: req.by_id("busy") != [] and req.by_id("estop") != [])
-                busy = req.by_id("busy")[0][1]
-                assert busy["ok"] is False and busy["kind"] == "BusyError"
-                assert busy["error"].startswith("busy")
-                assert req.by_id("estop")[0][1]["ok"] is True
-                link.lanes["commands"].pending = 0
-                await req.send("speed", b'{"channel": 1, "value": 9, "id": "later"}')
-                await _until(lambda: req.by_id("later") != [])
-                assert req.by_id("later")[0][1]["ok"] is not None
+        commands = {"allow": ["speed", "stop_job"], "estop": True, "max_pending": 3}
+        async with (
+            serving(broker, audit, **commands) as (_, link),
+            Requester.connect(broker) as req,
+        ):
+            link.lanes["commands"].pending = 3  # as if three commands waited
+            await req.send("speed", b'{"channel": 1, "value": 9, "id": "busy"}')
+            await req.send("estop", b'{"id": "estop"}')
+            await until(lambda: req.by_id("busy") != [] and req.by_id("estop") != [])
+            busy = req.by_id("busy")[0][1]
+            assert busy["ok"] is False and busy["kind"] == "BusyError"
+            assert busy["error"].startswith("busy")
+            assert req.by_id("estop")[0][1]["ok"] is True
+            link.lanes["commands"].pending = 0
+            await req.send("speed", b'{"channel": 1, "value": 9, "id": "later"}')
+            await until(lambda: req.by_id("later") != [])
+            assert req.by_id("later")[0][1]["ok"] is not None
         entries = _audit(audit)
         busy_entries = [e for e in entries if e["outcome"].startswith("refused: busy")]
         assert len(busy_entries) == 1 and busy_entries[0]["who"] == "cell-robostar"
@@ -304,12 +219,10 @@ def test_a_command_flood_is_bounded_and_state_keeps_flowing(broker: Broker, tmp_
     count = 3000
 
     async def main() -> None:
-        async with LineServer(_config(broker, audit, max_pending=4)) as server:
-            link = await _connected(server)
+        async with serving(broker, audit, max_pending=4) as (server, link):
             face = server.faces["mqtt"]
             line = server.lines["cell1"]
-            async with contextlib.AsyncExitStack() as stack:
-                req = await Requester.start(broker, stack, RESULTS, "robostar/cell1/test/#")
+            async with Requester.connect(broker, RESULTS, "robostar/cell1/test/#") as req:
                 baseline = len(face.tasks)  # type: ignore[attr-defined]
                 peaks = {"tasks": 0, "pending": 0, "queue": 0}
                 seen_marks: list[int] = []
@@ -325,7 +238,7 @@ def test_a_command_flood_is_bounded_and_state_keeps_flowing(broker: Broker, tmp_
                     # State reporting during the flood: a model value set now must arrive.
                     for k in range(1, 6):
                         line.model.set("test/mark", k)
-                        await _until(lambda: k in seen_marks, 10)  # noqa: B023
+                        await until(lambda: k in seen_marks, 10)  # noqa: B023
                         await asyncio.sleep(0.1)
 
                 def collect_marks() -> None:
@@ -348,7 +261,7 @@ def test_a_command_flood_is_bounded_and_state_keeps_flowing(broker: Broker, tmp_
                     await asyncio.sleep(0.02)
                 marker.result()  # every value arrived while commands were refused
                 # The flood drains at once: nothing stale keeps running for seconds.
-                await _until(lambda: link.lanes["commands"].pending == 0, 5)
+                await until(lambda: link.lanes["commands"].pending == 0, 5)
                 await asyncio.sleep(0.5)
                 watcher.cancel()
                 replies = [body for topic, body, _ in req.replies if topic.endswith("/result")]

@@ -10,7 +10,6 @@ import signal
 import subprocess
 import sys
 import time
-from collections.abc import Callable
 from typing import Any
 
 import aiomqtt
@@ -26,7 +25,7 @@ from robostar.serve.faces.mqtt.reporter import Reporter
 from robostar.serve.model import Quality, Sample
 from robostar.types import ArmForm, Position, PositionKind
 
-from .conftest import Broker
+from .conftest import Broker, until
 
 pytestmark = pytest.mark.timeout(180)
 
@@ -63,14 +62,6 @@ class Collector:
                 self.messages.append((str(message.topic), payload, bool(message.retain)))
 
 
-async def _until(check: Callable[[], bool], seconds: float = 10.0) -> None:
-    end = time.monotonic() + seconds
-    while not check():
-        if time.monotonic() > end:
-            raise AssertionError("the condition did not come true in time")
-        await asyncio.sleep(0.02)
-
-
 async def _subscribe(broker: Broker) -> tuple[Collector, asyncio.Task[None]]:
     collector, ready = Collector(), asyncio.Event()
     task = asyncio.create_task(collector.run(broker, ready))
@@ -83,9 +74,9 @@ def test_a_late_subscriber_gets_the_retained_state(broker: Broker) -> None:
         async with _server(broker) as server:
             face = server.faces["mqtt"]
             link = face.links["cell1"]  # type: ignore[attr-defined]
-            await _until(lambda: link.published > 5)
+            await until(lambda: link.published > 5)
             late, task = await _subscribe(broker)  # connects after the values went out
-            await _until(lambda: late.values("robostar/cell1/ch1/status") != [])
+            await until(lambda: late.values("robostar/cell1/ch1/status") != [])
             task.cancel()
         assert late.values("robostar/cell1/online") == [True]
         assert late.values("robostar/_server/online") == [True]
@@ -107,8 +98,8 @@ def test_a_clean_stop_says_offline(broker: Broker) -> None:
         sub, task = await _subscribe(broker)
         async with _server(broker) as server:
             link = server.faces["mqtt"].links["cell1"]  # type: ignore[attr-defined]
-            await _until(lambda: link.client is not None)
-        await _until(lambda: sub.values("robostar/cell1/online")[-1:] == [False])
+            await until(lambda: link.client is not None)
+        await until(lambda: sub.values("robostar/cell1/online")[-1:] == [False])
         task.cancel()
         return sub
 
@@ -126,11 +117,11 @@ def test_the_last_will_on_kill_9(broker: Broker) -> None:
     async def main() -> Collector:
         sub, task = await _subscribe(broker)
         try:
-            await _until(lambda: sub.values("robostar/cell1/online")[-1:] == [True], 30)
-            await _until(lambda: sub.values("robostar/_server/online")[-1:] == [True], 30)
+            await until(lambda: sub.values("robostar/cell1/online")[-1:] == [True], 30)
+            await until(lambda: sub.values("robostar/_server/online")[-1:] == [True], 30)
             os.kill(process.pid, signal.SIGKILL)
-            await _until(lambda: sub.values("robostar/cell1/online")[-1:] == [False], 30)
-            await _until(lambda: sub.values("robostar/_server/online")[-1:] == [False], 30)
+            await until(lambda: sub.values("robostar/cell1/online")[-1:] == [False], 30)
+            await until(lambda: sub.values("robostar/_server/online")[-1:] == [False], 30)
         finally:
             task.cancel()
         return sub
@@ -147,9 +138,9 @@ def test_broker_restart_replays_the_buffered_changes_in_order(broker: Broker) ->
         async with _server(broker, rate=1000, reconnect_max=0.5) as server:
             line = server.lines["cell1"]
             link = server.faces["mqtt"].links["cell1"]  # type: ignore[attr-defined]
-            await _until(lambda: link.client is not None)
+            await until(lambda: link.client is not None)
             broker.stop()
-            await _until(lambda: link.client is None)
+            await until(lambda: link.client is None)
             # Changes while the broker is away: each goes to the buffer, in order.
             for k in range(30):
                 line.model.set("ch1/speed", 100 + k)
@@ -158,14 +149,12 @@ def test_broker_restart_replays_the_buffered_changes_in_order(broker: Broker) ->
             buffered = lambda: [  # noqa: E731
                 json.loads(r.payload)["value"] for r in link.buffer.peek(10_000) if r.topic == topic
             ]
-            await _until(lambda: buffered()[-1:] == [129])
+            await until(lambda: buffered()[-1:] == [129])
             waiting = buffered()
             broker.start()
             sub, task = await _subscribe(broker)
-            await _until(lambda: len(link.buffer) == 0, 30)
-            await _until(
-                lambda: 129 in [m["value"] for m in sub.values("robostar/cell1/ch1/speed")]
-            )
+            await until(lambda: len(link.buffer) == 0, 30)
+            await until(lambda: 129 in [m["value"] for m in sub.values("robostar/cell1/ch1/speed")])
             task.cancel()
         speeds = sub.values("robostar/cell1/ch1/speed")
         historical = [m for m in speeds if m.get("historical")]
@@ -187,7 +176,7 @@ def test_commands_are_refused_unless_enabled_and_allowed(broker: Broker) -> None
     ) -> Any:
         async with _server(broker, **server_options) as server:
             link = server.faces["mqtt"].links["cell1"]  # type: ignore[attr-defined]
-            await _until(lambda: link.client is not None)
+            await until(lambda: link.client is not None)
             async with aiomqtt.Client(
                 "127.0.0.1", broker.port, protocol=aiomqtt.ProtocolVersion.V5
             ) as client:
@@ -246,7 +235,7 @@ def test_an_accepted_command_reaches_the_controller_and_the_audit(
 
         async with LineServer(config) as server:
             link = server.faces["mqtt"].links["cell1"]  # type: ignore[attr-defined]
-            await _until(lambda: link.client is not None)
+            await until(lambda: link.client is not None)
             async with aiomqtt.Client("127.0.0.1", broker.port) as client:
                 await client.subscribe("robostar/cell1/cmd/speed/result", qos=1)
                 await client.publish(

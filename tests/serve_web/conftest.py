@@ -15,10 +15,13 @@ pytest.importorskip("starlette", reason="the web face needs the 'web' extra")
 
 from web_harness import CHROMIUM, PASSWORDS, ROLES, Stack
 
+from robostar.commands.files import LINE_MAX
+from robostar.commands.job import MAX_STEP
 from robostar.serve.config import LineConfig, ServeConfig
 from robostar.serve.faces.web import WebFace
 from robostar.serve.server import LineServer
 from robostar.serve.users import UserStore
+from robostar.serving import UploadLimits
 from robostar.sim import SimConfig, VirtualController
 from robostar.sim.server import SimServer
 
@@ -35,6 +38,23 @@ def users_file(tmp_path_factory: pytest.TempPathFactory) -> Path:
 @pytest.fixture(scope="module")
 def stack(users_file: Path, tmp_path_factory: pytest.TempPathFactory) -> Iterator[Stack]:
     controller = VirtualController(SimConfig(speedup=20.0))
+    yield from running_stack(controller, users_file, tmp_path_factory)
+
+
+@pytest.fixture(scope="module")
+def full_stack(users_file: Path, tmp_path_factory: pytest.TempPathFactory) -> Iterator[Stack]:
+    """A stack whose simulator holds the largest file the protocol carries: 9999 steps of 100
+    bytes (by default it refuses more than 4000 lines or 512 KiB in one upload, a guard of its
+    own, above the 2000 steps of the manual's example)."""
+    limits = UploadLimits(max_lines=MAX_STEP, max_bytes=MAX_STEP * LINE_MAX)
+    controller = VirtualController(SimConfig(speedup=20.0), limits=limits)
+    yield from running_stack(controller, users_file, tmp_path_factory)
+
+
+def running_stack(
+    controller: VirtualController, users_file: Path, tmp_path_factory: pytest.TempPathFactory
+) -> Iterator[Stack]:
+    """A :class:`Stack` in front of ``controller``, for a fixture to yield from."""
     sim = SimServer(controller).start()
     audit_path = tmp_path_factory.mktemp("audit") / "audit.jsonl"
     loop = asyncio.new_event_loop()

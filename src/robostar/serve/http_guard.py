@@ -4,7 +4,8 @@
   server (a page on another name that resolves here, DNS rebinding, gets a 400);
 - :class:`BodyLimit`: ASGI middleware refusing a body past a size (413), by its
   ``Content-Length`` before any of it is read, and by counting what ``receive()`` hands over
-  for a body without one (chunked), so no handler ever holds more than the limit;
+  for a body without one (chunked), so no handler ever holds more than the limit; a route that
+  carries a file may have a limit of its own (:class:`RouteLimit`), the rest stay tight;
 - :func:`same_secret`: a constant-time comparison of two header or form values that never raises
   (a non-ASCII header is just a wrong one);
 - :class:`Refusals`: a face's refusals into the line's audit log, rate-capped (a page sending
@@ -20,9 +21,11 @@ from __future__ import annotations
 
 import hmac
 import ipaddress
+import re
 import socket
 import time
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from starlette.exceptions import HTTPException
@@ -43,6 +46,7 @@ __all__ = [
     "HostGuard",
     "HostRule",
     "Refusals",
+    "RouteLimit",
     "host_of",
     "hosts_option",
     "is_loopback_name",
@@ -51,8 +55,9 @@ __all__ = [
 ]
 
 DEFAULT_MAX_BODY = 2 * 1024 * 1024
-"""The largest request body the HTTP faces read (the ``max_body`` option): the largest
-legitimate one is a file upload (9999 lines of at most 100 bytes, about 1 MB)."""
+"""The largest request body the API reads (its ``max_body`` option): the largest legitimate one
+is a file upload (9999 lines of at most 100 bytes, about 1 MB, as JSON). The dashboard keeps its
+own limits, tight but for its upload routes (``robostar.serve.faces.web.limits``)."""
 
 _LOOPBACK_NAMES = ("localhost", "127.0.0.1", "::1")
 _WILDCARDS = ("0.0.0.0", "::", "")
@@ -142,10 +147,10 @@ def hosts_option(value: object, face: str) -> tuple[str, ...]:
     raise UsageError(f'{face}.hosts: expected a list of host names, e.g. ["cell7.plant.example"]')
 
 
-def max_body_option(value: object, face: str) -> int:
-    """A face's ``max_body`` option: bytes, at least 64 KiB (the default is 2 MiB)."""
+def max_body_option(value: object, face: str, default: int = DEFAULT_MAX_BODY) -> int:
+    """A face's ``max_body`` option: bytes, at least 64 KiB (``default`` when not given)."""
     if value is None:
-        return DEFAULT_MAX_BODY
+        return default
     if isinstance(value, bool) or not isinstance(value, int) or value < 65536:
         raise UsageError(f"{face}.max_body: a number of bytes, at least 65536 (not {value!r})")
     return value
@@ -154,8 +159,18 @@ def max_body_option(value: object, face: str) -> int:
 class BodyTooLarge(HTTPException):
     """Raised from ``receive()`` when a body without a length grows past the limit."""
 
-    def __init__(self, limit: int) -> None:
-        super().__init__(413, f"the request body is over {limit} bytes")
+    def __init__(self, limit: int, message: str | None = None) -> None:
+        super().__init__(413, message or f"the request body is over {limit} bytes")
+
+
+@dataclass(frozen=True, slots=True)
+class RouteLimit:
+    """A body limit of its own for the paths ``path`` matches in full (a file upload's), and
+    what its 413 says (naming the limit)."""
+
+    path: re.Pattern[str]
+    limit: int
+    message: str
 
 
 class HostGuard:
@@ -179,28 +194,42 @@ class HostGuard:
 
 
 class BodyLimit:
-    """ASGI middleware: at most ``limit`` bytes of request body reach the application."""
+    """ASGI middleware: at most ``limit`` bytes of request body reach the application (on a
+    path one of ``routes`` matches, that route's limit)."""
 
-    def __init__(self, app: ASGIApp, *, limit: int, respond: Respond) -> None:
+    def __init__(
+        self,
+        app: ASGIApp,
+        *,
+        limit: int,
+        respond: Respond,
+        routes: Sequence[RouteLimit] = (),
+    ) -> None:
         self.app = app
         self.limit = limit
         self.respond = respond
+        self.routes = tuple(routes)
+
+    def _limit_for(self, path: str) -> tuple[int, str]:
+        for route in self.routes:
+            if route.path.fullmatch(path):
+                return route.limit, route.message
+        return self.limit, f"the request body is over {self.limit} bytes"
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         if scope["type"] != "http":
             await self.app(scope, receive, send)
             return
+        limit, too_large = self._limit_for(str(scope.get("path", "")))
         length = _header(scope, b"content-length")
         if length is not None:
             if not length.strip().isdigit():
                 await self.respond(400, "Content-Length is not a number")(scope, receive, send)
                 return
-            if int(length) > self.limit:
-                message = f"the request body is over {self.limit} bytes"
-                await self.respond(413, message)(scope, receive, send)
+            if int(length) > limit:
+                await self.respond(413, too_large)(scope, receive, send)
                 return
         received = 0
-        limit = self.limit
 
         async def counted() -> Message:
             nonlocal received
@@ -208,7 +237,7 @@ class BodyLimit:
             if message["type"] == "http.request":
                 received += len(message.get("body", b""))
                 if received > limit:
-                    raise BodyTooLarge(limit)
+                    raise BodyTooLarge(limit, too_large)
             return message
 
         await self.app(scope, counted, send)

@@ -4,6 +4,7 @@
 line's N1 face listens (the API starts one on loopback when none is configured), then connects
 there over TCP. Every client and CLI command thus works through the line server unchanged.
 A token for a remote server goes in the ``token`` option (``serve://h:p/cell1?token=...``).
+An IPv6 address is written in brackets, as in any URL: ``serve://[::1]:8470/cell1``.
 """
 
 from __future__ import annotations
@@ -11,23 +12,36 @@ from __future__ import annotations
 import asyncio
 import json
 import urllib.error
+import urllib.parse
 import urllib.request
 
 from robostar.errors import PortError
 from robostar.transport.aio import AsyncTcpTransport, LineProtocol
 from robostar.transport.tcp import TcpTransport
 
-__all__ = ["AsyncServeTransport", "ServeTransport", "resolve_line"]
+__all__ = ["AsyncServeTransport", "ServeTransport", "resolve_line", "serve_url"]
 
 DEFAULT_API_PORT = 8470
 """The local API's port when a serve:// URL names none."""
+
+
+def _netloc(host: str, port: int) -> str:
+    """``HOST:PORT``, an IPv6 address in brackets (the parsed URL gave it without them)."""
+    return f"[{host}]:{port}" if ":" in host else f"{host}:{port}"
+
+
+def serve_url(api_host: str, api_port: int, line: str) -> str:
+    """The ``serve://`` URL of ``line`` behind the API at ``api_host:api_port``."""
+    return f"serve://{_netloc(api_host, api_port)}/{line}"
 
 
 def resolve_line(
     api_host: str, api_port: int, line: str, token: str | None, timeout: float
 ) -> tuple[str, int]:
     """Ask the server's API where ``line``'s N1 face listens; PortError saying why not."""
-    url = f"http://{api_host}:{api_port}/lines/{line}/n1"
+    where = serve_url(api_host, api_port, line)
+    path = urllib.parse.quote(line, safe="")
+    url = f"http://{_netloc(api_host, api_port)}/lines/{path}/n1"
     request = urllib.request.Request(url)
     if token:
         request.add_header("Authorization", f"Bearer {token}")
@@ -36,15 +50,14 @@ def resolve_line(
             data = json.loads(reply.read())
     except urllib.error.HTTPError as exc:
         detail = exc.read().decode("utf-8", "replace")[:200]
-        raise PortError(f"serve://{api_host}:{api_port}/{line}: {exc.code} {detail}") from exc
+        raise PortError(f"{where}: {exc.code} {detail}") from exc
     except (OSError, ValueError) as exc:
         raise PortError(
-            f"serve://{api_host}:{api_port}/{line}: no line server API there ({exc});"
-            " is robostar serve running with --api?"
+            f"{where}: no line server API there ({exc}); is robostar serve running with --api?"
         ) from exc
     address = data.get("n1") if isinstance(data, dict) else None
     if not isinstance(address, list) or len(address) != 2:
-        raise PortError(f"serve://{api_host}:{api_port}/{line}: the server gave no N1 address")
+        raise PortError(f"{where}: the server gave no N1 address")
     return str(address[0]), int(address[1])
 
 
@@ -61,6 +74,7 @@ class ServeTransport(TcpTransport):
         connect_timeout: float = 5.0,
         url: str = "",
     ) -> None:
+        url = url or serve_url(api_host, api_port, line)
         super().__init__(api_host, api_port, connect_timeout=connect_timeout, url=url)
         self.api = (api_host, api_port)
         self.line = line
@@ -86,6 +100,7 @@ class AsyncServeTransport(AsyncTcpTransport):
         connect_timeout: float = 5.0,
         url: str = "",
     ) -> None:
+        url = url or serve_url(api_host, api_port, line)
         super().__init__(api_host, api_port, connect_timeout=connect_timeout, url=url)
         self.api = (api_host, api_port)
         self.line = line

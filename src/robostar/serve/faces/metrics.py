@@ -2,6 +2,12 @@
 
 With a token configured (required beyond loopback) a scrape must send it as
 ``Authorization: Bearer TOKEN`` (Prometheus: ``authorization: {credentials: TOKEN}``).
+
+The ``Host`` header must name the endpoint, by the same rule as the API and the dashboard
+(:class:`robostar.serve.http_guard.HostRule`: the listen address, the loopback names on a loopback
+address, any IP address on a wildcard one, and the names in the ``hosts`` option); anything else
+gets a 400 before the token is looked at. Without it a web page on a name that resolves to
+127.0.0.1 (DNS rebinding) could read the figures from a browser on this machine.
 """
 
 from __future__ import annotations
@@ -18,6 +24,7 @@ from prometheus_client.core import CounterMetricFamily, GaugeMetricFamily, Metri
 from prometheus_client.registry import Collector
 
 from robostar.errors import UsageError
+from robostar.serve.http_guard import HostRule, hosts_option
 from robostar.serving import check_host, parse_listen
 from robostar.serving.address import warn_remote
 
@@ -111,11 +118,14 @@ class MetricsFace:
         listen: tuple[str, int],
         allow_remote: bool,
         token: str | None = None,
+        *,
+        hosts: tuple[str, ...] = (),
     ) -> None:
         if allow_remote and not token:
             raise UsageError("metrics: allow_remote needs a token")
         self.registry = registry_for(server)
         self.listen = listen
+        self.host_rule = HostRule(listen[0], hosts)
         self.allow_remote = allow_remote
         self._authorization = None if token is None else f"Bearer {token}".encode()
         self.address: tuple[str, int] | None = None
@@ -134,7 +144,14 @@ class MetricsFace:
         try:
             request = await asyncio.wait_for(reader.readuntil(b"\r\n\r\n"), 5.0)
             target = request.split(b" ", 2)[1] if request.count(b" ") >= 2 else b""
-            if not self._authorized(request):
+            hosts = _headers(request, b"host")
+            if len(hosts) != 1 or not self.host_rule.allows(hosts[0].decode("latin-1")):
+                # checked first, as the other HTTP faces' HostGuard does: a rebinding page
+                # learns nothing, not even whether a token is wanted (two Host headers: RFC 9112)
+                shown = (hosts[0].decode("latin-1") if hosts else "")[:100]
+                body = f"this server does not answer to the host {shown!r}\n".encode()
+                head = b"HTTP/1.1 400 Bad Request\r\nContent-Type: text/plain; charset=utf-8\r\n"
+            elif not self._authorized(request):
                 body = b"a token is needed: Authorization: Bearer TOKEN\n"
                 head = (
                     b"HTTP/1.1 401 Unauthorized\r\nContent-Type: text/plain\r\n"
@@ -160,11 +177,8 @@ class MetricsFace:
     def _authorized(self, request: bytes) -> bool:
         if self._authorization is None:
             return True
-        for line in request.split(b"\r\n")[1:]:
-            name, _, value = line.partition(b":")
-            if name.strip().lower() == b"authorization":
-                return hmac.compare_digest(value.strip(), self._authorization)
-        return False
+        values = _headers(request, b"authorization")
+        return bool(values) and hmac.compare_digest(values[0], self._authorization)
 
     async def stop(self) -> None:
         server, self._server = self._server, None
@@ -173,8 +187,19 @@ class MetricsFace:
             await server.wait_closed()
 
 
+def _headers(request: bytes, name: bytes) -> list[bytes]:
+    """The values of every header ``name`` (lower case) in a request's head, stripped."""
+    values = []
+    for line in request.split(b"\r\n")[1:]:
+        key, _, value = line.partition(b":")
+        if key.strip().lower() == name:
+            values.append(value.strip())
+    return values
+
+
 def create(server: LineServer, options: Mapping[str, Any]) -> MetricsFace:
-    """``options``: ``{"listen": "HOST:PORT", "allow_remote": bool, "token": str}``."""
+    """``options``: ``{"listen": "HOST:PORT", "allow_remote": bool, "token": str, "hosts": [names
+    besides the listen address]}``."""
     listen = options.get("listen")
     if not isinstance(listen, str):
         raise UsageError('metrics.listen: expected "HOST:PORT"')
@@ -182,4 +207,5 @@ def create(server: LineServer, options: Mapping[str, Any]) -> MetricsFace:
     if token is not None and not isinstance(token, str):
         raise UsageError("metrics.token: expected a string")
     allow_remote = bool(options.get("allow_remote", False))
-    return MetricsFace(server, parse_listen(listen), allow_remote, token)
+    hosts = hosts_option(options.get("hosts"), "metrics")
+    return MetricsFace(server, parse_listen(listen), allow_remote, token, hosts=hosts)

@@ -13,7 +13,9 @@ Options (the ``[web]`` section):
 - ``hosts``: host names the dashboard answers to besides its listen address (and, on loopback,
   ``localhost``/``127.0.0.1``/``::1``): the names a reverse proxy passes on in ``Host``. Any
   other ``Host`` gets a 400 (DNS rebinding);
-- ``max_body``: the largest request body read, in bytes (default 2 MiB; 413 past it).
+- ``max_body``: the largest request body read, in bytes, on every route but the two upload
+  routes (default 64 KiB; 413 past it). An upload takes the largest file the N1 protocol carries
+  (``limits.MAX_UPLOAD``: 9999 steps of 100 bytes) and its form, whatever this says.
 
 See :mod:`robostar.serve.faces.web.app` for the pages and the rules every request follows.
 """
@@ -61,6 +63,7 @@ class WebFace:
         if unknown:
             raise UsageError(f"web: unknown option(s) {', '.join(sorted(unknown))}")
         from robostar.serve.faces.web.app import WebSettings, build_app
+        from robostar.serve.faces.web.limits import DEFAULT_MAX_BODY
         from robostar.serve.http_guard import hosts_option, max_body_option
         from robostar.serve.users import UserStore
 
@@ -98,7 +101,7 @@ class WebFace:
             audit_path=str(audit) if audit is not None else None,
             listen_host=self.host,
             hosts=hosts,
-            max_body=max_body_option(options.get("max_body"), "web"),
+            max_body=max_body_option(options.get("max_body"), "web", DEFAULT_MAX_BODY),
         )
         self.app = build_app(server, settings)
         self._server: Any = None

@@ -43,7 +43,7 @@ from robostar.commands.base import Command
 from robostar.commands.control import EmergencyStop, ResetAlarms, SetSpeed, StartJob, StopJob
 from robostar.commands.files import DownloadFile, ListFiles, UploadFile
 from robostar.commands.io import SetOutput
-from robostar.commands.job import Servo
+from robostar.commands.job import MAX_STEP, Servo
 from robostar.errors import RobostarError, UsageError
 from robostar.protocol.fields import FileName
 from robostar.serve.faces.web.auth import (
@@ -57,14 +57,22 @@ from robostar.serve.faces.web.auth import (
     read_form,
 )
 from robostar.serve.faces.web.jog import JogSession
+from robostar.serve.faces.web.limits import (
+    DEFAULT_MAX_BODY,
+    MAX_UPLOAD,
+    MAX_UPLOAD_BODY,
+    UPLOAD_ROUTES,
+    upload_too_large,
+)
 from robostar.serve.faces.web.variables import KINDS, PAGE_MAX, build_write, page_range, read_rows
 from robostar.serve.faces.web.views import axis_unit, change_json, sample_json
 from robostar.serve.http_guard import (
-    DEFAULT_MAX_BODY,
     BodyLimit,
+    BodyTooLarge,
     HostGuard,
     HostRule,
     Refusals,
+    RouteLimit,
     same_secret,
 )
 from robostar.serve.jsonable import jsonable
@@ -86,8 +94,6 @@ from robostar.types import (
 __all__ = ["WebSettings", "build_app"]
 
 _HERE = Path(__file__).parent
-MAX_UPLOAD = 256 * 1024
-"""Largest file accepted for upload (a 2000-step job is well under this)."""
 EVENT_KEEPALIVE = 15.0
 """Seconds between SSE comments on a quiet stream, so proxies keep it open."""
 SIGN_IN_ATTEMPTS_PER_ADDRESS = 20
@@ -111,7 +117,8 @@ class WebSettings:
     hosts: tuple[str, ...] = ()
     """Host names besides the listen address (the names a reverse proxy passes on)."""
     max_body: int = DEFAULT_MAX_BODY
-    """The largest request body read, in bytes."""
+    """The largest request body read, in bytes, on every route but the uploads (which take
+    ``limits.MAX_UPLOAD_BODY``: the largest file the N1 protocol carries, and its form)."""
 
 
 class _Forbidden(Exception):
@@ -273,13 +280,13 @@ def build_app(server: LineServer, settings: WebSettings) -> Starlette:
             raise _Forbidden(400, "choose a file to upload")
         raw = await upload.read(MAX_UPLOAD + 1)
         if len(raw) > MAX_UPLOAD:
-            raise _Forbidden(400, f"the file is over {MAX_UPLOAD // 1024} KiB")
+            raise _Forbidden(413, upload_too_large("the file"))
         try:
             text = raw.decode("ascii")
         except UnicodeDecodeError:
             raise _Forbidden(400, "the controller holds ASCII text only") from None
         name = _file_name(str(form.get("name") or upload.filename or ""))
-        lines = tuple(text.splitlines())
+        lines = _steps(name, text)
         command = UploadFile(
             channel, name, _int(str(form.get("job_number", "0")), "job", 0, 200), lines
         )
@@ -304,7 +311,10 @@ def build_app(server: LineServer, settings: WebSettings) -> Starlette:
         channel = _int(str(form.get("channel", "1")), "channel", 1, 3)
         name = _file_name(str(form.get("name", "")))
         job_number = _int(str(form.get("job_number", "0")), "job", 0, 200)
-        lines = tuple(str(form.get("content", "")).splitlines())
+        content = str(form.get("content", ""))
+        if len(content) > MAX_UPLOAD:  # the preview's limit, for a confirm sent without one
+            raise _Forbidden(413, upload_too_large("the content"))
+        lines = _steps(name, content)
         await run(line, UploadFile(channel, name, job_number, lines), account)
         return RedirectResponse(f"/line/{line.name}/files?channel={channel}", status_code=303)
 
@@ -496,7 +506,14 @@ def build_app(server: LineServer, settings: WebSettings) -> Starlette:
             rule=HostRule(settings.listen_host, settings.hosts),
             respond=_guard_error,
         ),
-        Middleware(BodyLimit, limit=settings.max_body, respond=_guard_error),
+        Middleware(
+            BodyLimit,
+            limit=settings.max_body,
+            respond=_guard_error,
+            # the largest legitimate body is the largest file the protocol carries; every other
+            # route is held to max_body (a sign-in, an action or a point: a few hundred bytes)
+            routes=(RouteLimit(UPLOAD_ROUTES, MAX_UPLOAD_BODY, upload_too_large("the upload")),),
+        ),
         Middleware(
             SessionMiddleware,
             secret_key=settings.secret,
@@ -510,6 +527,7 @@ def build_app(server: LineServer, settings: WebSettings) -> Starlette:
         routes=routes,
         middleware=middleware,
         exception_handlers={
+            BodyTooLarge: _too_large_response,
             _Forbidden: _forbidden_response,
             RobostarError: _robostar_error_response,
         },
@@ -591,6 +609,15 @@ def _file_name(text: str) -> FileName:
         return name.check("", "name")
     except UsageError as exc:
         raise _Forbidden(400, str(exc)) from None
+
+
+def _steps(name: FileName, text: str) -> tuple[str, ...]:
+    """An uploaded file's lines, as FB will send them; a JOB of more steps than the protocol
+    counts (FA could not even announce its length) is refused before anything is sent."""
+    lines = tuple(text.splitlines())
+    if name.is_job and len(lines) > MAX_STEP:
+        raise _Forbidden(400, f"{name} has {len(lines)} lines; a job holds at most {MAX_STEP}")
+    return lines
 
 
 def _file_params(request: Request) -> tuple[int, FileName]:
@@ -813,6 +840,11 @@ async def _jog_socket(
 async def _forbidden_response(request: Request, exc: Exception) -> Response:
     assert isinstance(exc, _Forbidden)
     return _error(request, exc.status, exc.message)
+
+
+async def _too_large_response(request: Request, exc: Exception) -> Response:
+    # a body without a length that grew past the limit (BodyLimit counted it)
+    return _guard_error(413, str(getattr(exc, "detail", exc)))
 
 
 async def _robostar_error_response(request: Request, exc: Exception) -> Response:

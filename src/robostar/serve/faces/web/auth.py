@@ -18,6 +18,7 @@ from dataclasses import dataclass
 from starlette.datastructures import FormData
 from starlette.requests import HTTPConnection, Request
 
+from robostar.serve.faces.web.limits import MAX_UPLOAD_BODY
 from robostar.serve.http_guard import same_secret
 from robostar.serve.users import LoginLimiter, Role, User, UserStore
 
@@ -38,8 +39,10 @@ FORM_MAX_FILES = 1
 """Files in one form (the upload form has one)."""
 FORM_MAX_FIELDS = 64
 """Fields in one form (the point editor's is the largest: a dozen)."""
-FORM_MAX_PART = 1024 * 1024
-"""Bytes of one multipart field that is not a file (an upload's confirmed content)."""
+FORM_MAX_PART = MAX_UPLOAD_BODY
+"""Bytes of one multipart field that is not a file (an upload's confirmed content): as much as
+the upload routes' body limit, so the confirm route's own check (``MAX_UPLOAD``, 413 naming it)
+is what a too long content meets."""
 SESSION_LIFETIME = 12 * 3600.0
 """Seconds a session lasts since it was last used (the cookie's max_age)."""
 
