@@ -94,9 +94,10 @@ class ClientBase(PlanHelpers):
     def _new_link(self) -> HostLink:
         # After an RST the line must stay quiet for a whole reply timeout before the next
         # request: an answer a device server held back cannot then pass for the next one's.
-        # After our own abort (a stop pre-empting a transfer) the controller stops at the RST;
-        # only a packet already on its way can follow: the gap is one packet's time at the
-        # line's speed (at least 50 ms).
+        # After our own abort the same holds for every request but a stop (CF, CD, CI, BG:
+        # a stop pre-empting a transfer), which may go out once the line has been quiet for
+        # one packet's time at the line's speed (at least 50 ms): the controller stops at
+        # the RST, and a stop's answer, a bare flag, is told from stale data (HostLink).
         timeout = self.settings.timeout
         settings = getattr(self.transport, "settings", None)
         baud = getattr(settings, "baudrate", 0)
