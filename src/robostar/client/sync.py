@@ -167,17 +167,18 @@ class Client(SyncOperations, ClientBase):
         written = False
         clock = time.monotonic
         try:
-            if command.CHANGES_STATE or clock() >= self._fresh_until:
+            now = clock()
+            # A read right after an exchange ended in order needs no drain (FRESH_LINE).
+            if command.CHANGES_STATE or now >= self._fresh_until:
                 stray = transport.read(0.0)  # the drain's first read
-            else:
-                stray = b""  # a read right after an exchange ended in order (FRESH_LINE)
+                if stray:
+                    self._drain(stray)
+                    now = clock()
+                elif out := link.data_to_send():  # what _drain writes after its reads
+                    self._traced_sent(out)
+                    transport.write(out)
             self._fresh_until = 0.0  # until this exchange, too, ends in order
-            if stray:
-                self._drain(stray)
-            elif out := link.data_to_send():  # what _drain writes after its reads
-                self._traced_sent(out)
-                transport.write(out)
-            exchange.start(clock())
+            exchange.start(now)
             while True:
                 out = link.data_to_send()  # exchange.output(), without the call
                 if out:
@@ -187,18 +188,19 @@ class Client(SyncOperations, ClientBase):
                     transport.write(out)
                 if exchange.done:
                     if link.idle:  # ended in order (not a reset): the next read may skip a drain
-                        self._fresh_until = clock() + FRESH_LINE
+                        self._fresh_until = now + FRESH_LINE
                     return exchange
                 deadline = link.next_deadline()
                 if deadline is None:
                     deadline = exchange.deadline()  # raises: the link must be timing a wait
                 data = transport.read(max(deadline - clock(), 0.0))
+                now = clock()
                 if data:
                     if traced:
                         self._traced_received(data)
-                    exchange.receive(data, clock())
+                    exchange.receive(data, now)
                 else:
-                    exchange.tick(clock())
+                    exchange.tick(now)
         except PortError as exc:
             raise self._line_lost(command, exc, written) from exc
         except BaseException:

@@ -16,7 +16,7 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, ClassVar, Generic, Self, TypeVar
+from typing import TYPE_CHECKING, Any, ClassVar, Generic, Self, TypeVar
 
 from robostar.errors import FieldError, MalformedAnswerError
 from robostar.protocol.fields import (
@@ -82,6 +82,14 @@ class Command(ABC, Generic[T]):
     MAX_PACKETS: ClassVar[int | None] = None
     """Multi-packet answers: the most packets (END included) the answer can hold; None: the
     link's general cap."""
+    _HEAD: ClassVar[bytes] = b""
+    """``FF G1 G2``, made once per class (every request starts with it)."""
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        code = getattr(cls, "CODE", None)  # its own or inherited
+        if isinstance(code, str):
+            cls._HEAD = b"\xff" + code.encode("ascii")
 
     # -- request ---------------------------------------------------------------------------
     @abstractmethod
@@ -100,7 +108,7 @@ class Command(ABC, Generic[T]):
 
     def encode(self) -> bytes:
         """The request packet's data: ``FF G1 G2 params``."""
-        return b"\xff" + self.CODE.encode("ascii") + self.encode_params()
+        return self._HEAD + self.encode_params()
 
     @classmethod
     def decode(cls, data: bytes) -> Self:
