@@ -18,17 +18,12 @@ from robostar.protocol.frame import MAX_PACKET
 from robostar.protocol.link import HostLink
 from robostar.transport import AsyncTransport, Transport
 
-__all__ = ["DRAIN_READS", "FRESH_LINE", "KEEPALIVE_LIMIT", "ClientBase", "Settings"]
+__all__ = ["DRAIN_READS", "KEEPALIVE_LIMIT", "ClientBase", "Settings"]
 
 KEEPALIVE_LIMIT = 0.5
 """The manual: a jog stops unless a BF comes within 500 ms of the last one."""
 DRAIN_READS = 32
 """Most reads of stray input before a request (a line that never stops talking is noise)."""
-FRESH_LINE = 0.005
-"""Seconds after an exchange ended in order (its answer whole and ACKed) in which a read needs
-no drain before it: what the drain is for, a controller resending an answer whose ACK it
-missed, comes a resend timeout later (the manual's 2 s; 0.3 s at the shortest setting), and a
-read is harmless to run twice. A state change always drains first."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -83,7 +78,6 @@ class ClientBase(PlanHelpers):
         self._policy = Policy(settings.timeout, settings.retries)
         self._trace = WireTrace(trace) if trace is not None else None
         self._link = self._new_link()
-        self._fresh_until = 0.0
         self._opened = False
         self._closed = False
 

@@ -9,13 +9,7 @@ from types import TracebackType
 from typing import Any, Self, TypeVar, cast
 
 from robostar.client._sync_face import SyncOperations
-from robostar.client.core import (
-    DRAIN_READS,
-    FRESH_LINE,
-    ClientBase,
-    Settings,
-    check_keepalive,
-)
+from robostar.client.core import DRAIN_READS, ClientBase, Settings, check_keepalive
 from robostar.client.driver import NOT_DECODED, command_plan, decoded_at_once
 from robostar.client.exchange import Exchange, Progress
 from robostar.client.jog import Jog, jog_start
@@ -88,7 +82,6 @@ class Client(SyncOperations, ClientBase):
             self.transport.open()
         self._opened = True
         self._link = self._new_link()
-        self._fresh_until = 0.0  # a read before this needs no drain (FRESH_LINE)
 
     def _ensure_open(self) -> None:
         if not self.transport.is_open:
@@ -168,16 +161,13 @@ class Client(SyncOperations, ClientBase):
         clock = time.monotonic
         try:
             now = clock()
-            # A read right after an exchange ended in order needs no drain (FRESH_LINE).
-            if command.CHANGES_STATE or now >= self._fresh_until:
-                stray = transport.read(0.0)  # the drain's first read
-                if stray:
-                    self._drain(stray)
-                    now = clock()
-                elif out := link.data_to_send():  # what _drain writes after its reads
-                    self._traced_sent(out)
-                    transport.write(out)
-            self._fresh_until = 0.0  # until this exchange, too, ends in order
+            stray = transport.read(0.0)  # the drain's first read
+            if stray:
+                self._drain(stray)
+                now = clock()
+            elif out := link.data_to_send():  # what _drain writes after its reads
+                self._traced_sent(out)
+                transport.write(out)
             exchange.start(now)
             while True:
                 out = link.data_to_send()  # exchange.output(), without the call
@@ -187,8 +177,6 @@ class Client(SyncOperations, ClientBase):
                         self._traced_sent(out)
                     transport.write(out)
                 if exchange.done:
-                    if link.idle:  # ended in order (not a reset): the next read may skip a drain
-                        self._fresh_until = now + FRESH_LINE
                     return exchange
                 deadline = link.next_deadline()
                 if deadline is None:
