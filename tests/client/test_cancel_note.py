@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import asyncio
 import logging
+import time
 from collections.abc import Awaitable, Callable, Iterator
 from typing import Any
 
@@ -159,3 +160,64 @@ def test_the_cancellation_is_not_swallowed_by_a_waiting_caller() -> None:
                 await asyncio.wait_for(client.servo(1, True), 0.1)
 
     asyncio.run(run())
+
+
+def test_a_state_change_cancelled_after_its_answer_was_taken_says_carried_out(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The asyncio client takes and ACKs a clean answer in the transport's callback; a cancel
+    landing in that same loop turn meets a finished exchange: carried out, and nothing else
+    is sent (no RST)."""
+    from robostar.client import exchange as exchange_module
+
+    taken = exchange_module.Exchange.answer_at_once
+    tasks: list[asyncio.Task[Any]] = []
+
+    def answer_then_cancel(self: Any, data: bytes, now: float) -> bytes | None:
+        reply = taken(self, data, now)
+        if reply is not None and self.command.CODE == "GW":
+            tasks[0].cancel()  # the cancel arrives with the answer
+        return reply
+
+    monkeypatch.setattr(exchange_module.Exchange, "answer_at_once", answer_then_cancel)
+    with SimServer(VirtualController(SimConfig())) as server:
+
+        async def run() -> tuple[asyncio.CancelledError, int, str]:
+            async with AsyncClient(server.url, timeout=TIMEOUT) as client:
+                tasks.append(asyncio.create_task(client.write_global_int(5, 77)))
+                with pytest.raises(asyncio.CancelledError) as info:
+                    await tasks[0]
+                state = client._link.state.value
+                return info.value, await client.read_global_int(5), state
+
+        error, value, state = asyncio.run(run())
+    [note] = _notes(error)
+    assert "GW (WriteGlobalInt)" in note and "carried out" in note and "unknown" not in note
+    assert value == 77 and state == "IDLE"  # carried out; the link idle, no RST pending
+
+
+def test_a_state_change_cancelled_in_the_gap_after_a_stale_packet_was_reset_was_not_sent() -> None:
+    """In the quiet gap after the client's own abort the link answers a stale packet with RST:
+    that write is not the request, so a state change cancelled still in the gap was not sent."""
+    from robostar.protocol.frame import encode_packet
+    from robostar.protocol.packets import make_answer
+    from robostar.transport import AsyncPeerTransport
+
+    from .test_hostile_controller import Scripted
+
+    stale = encode_packet(make_answer(0x30, b"%6d" % 1010))
+    peer = Scripted(lambda data, n: [(0.5, stale)] if n == 1 else [])
+
+    async def run() -> asyncio.CancelledError:
+        client = AsyncClient(AsyncPeerTransport(peer), timeout=TIMEOUT)
+        await client.connect()
+        await _cancel_after(lambda: client.read_global_int(10), 0.05)  # RST; the gap begins
+        peer._queue.append((time.monotonic() + 0.1, stale))  # a stale packet in the gap
+        error = await _cancel_after(lambda: client.write_global_int(5, 1), 0.3)
+        await client.close()
+        return error
+
+    error = asyncio.run(run())
+    [note] = _notes(error)
+    assert "before its request was sent: not carried out" in note
+    assert [data[1:3] for data in peer.requests] == [b"GR"]

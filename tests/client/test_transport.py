@@ -459,6 +459,36 @@ def test_async_read_answering_writes_the_reply_where_the_bytes_land(
     asyncio.run(main())
 
 
+def test_async_bytes_behind_a_taken_answer_stay_for_the_next_read(
+    echo_server: tuple[str, int, list[socket.socket]],
+) -> None:
+    """A loop that reads a socket twice in one turn (libuv) can deliver bytes behind the
+    answer before the task resumes: the answered read returns b"" and leaves them for the
+    next read (the drain), not to be dropped with the finished exchange."""
+    host, port, _ = echo_server
+
+    async def main() -> None:
+        transport = await open_async_transport(f"tcp://{host}:{port}")
+        assert isinstance(transport, AsyncTcpTransport)
+        protocol = transport._protocol
+        assert protocol is not None
+        received = protocol.data_received
+
+        def twice_a_turn(data: bytes) -> None:
+            had = protocol.answer
+            received(data)
+            if had is not None and protocol.answer is None:
+                received(b"behind")  # the next read of the same turn
+
+        protocol.data_received = twice_a_turn  # type: ignore[method-assign]
+        async with transport:
+            await transport.write(AA)
+            assert await transport.read_answering(1.0, lambda data, now: b"") == b""
+            assert transport.read_nowait() == b"behind"
+
+    asyncio.run(main())
+
+
 def test_async_read_answering_reports_a_reply_that_could_not_be_written(
     echo_server: tuple[str, int, list[socket.socket]],
 ) -> None:

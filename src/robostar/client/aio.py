@@ -166,7 +166,8 @@ class AsyncClient(AsyncOperations, ClientBase):
             while True:
                 out = link.data_to_send()  # exchange.output(), without the call
                 if out:
-                    written = True
+                    # the request is out once an exchange is open (RESYNC's RSTs are not it)
+                    written = written or link.busy or exchange.done
                     if traced:
                         self._traced_sent(out)
                     pending = transport.write_nowait(out)  # await transport.write(out)
@@ -193,9 +194,10 @@ class AsyncClient(AsyncOperations, ClientBase):
             raise self._line_lost(command, exc, written) from exc
         except BaseException as exc:
             # A cancelled task, Ctrl-C, a callback's error: end the exchange with RST.
+            answered = exchange.done and exchange.answer() is not None
             exchange.abort(clock())
             if isinstance(exc, asyncio.CancelledError):  # it propagates, with a note
-                note_cancelled(exc, command, written)
+                note_cancelled(exc, command, written, answered=answered)
             out = exchange.output()
             if out and transport.is_open:
                 try:

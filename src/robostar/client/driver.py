@@ -132,16 +132,24 @@ def failure_error(command: Command[Any], failure: ExchangeFailed, policy: Policy
     return LinkResetError(code, failure.detail or reason.value)
 
 
-def note_cancelled(exc: BaseException, command: Command[Any], sent: bool) -> None:
+def note_cancelled(
+    exc: BaseException, command: Command[Any], sent: bool, *, answered: bool = False
+) -> None:
     """A state change cancelled mid-exchange (an asyncio task): put on the error itself, as a
     PEP 678 note, whether the controller may have carried it out, and log that at WARNING on
     the ``robostar`` logger. The cancellation is not swallowed nor replaced: asyncio's rules
-    hold, and only the note is added. ``sent``: the request may have reached the wire. A
-    command that changes nothing needs no note."""
+    hold, and only the note is added. ``sent``: the request may have reached the wire;
+    ``answered``: the controller's OK answer had come back and been ACKed. A command that
+    changes nothing needs no note."""
     if not command.CHANGES_STATE:
         return
     what = f"{command.CODE} ({type(command).__name__})"
-    if sent:
+    if answered:
+        note = (
+            f"robostar: {what} was cancelled after the controller had answered it: carried out"
+            " (only its result is lost with the cancellation)"
+        )
+    elif sent:
         note = (
             f"robostar: {what} was cancelled after its request was sent: the outcome is "
             "unknown - the controller may or may not have carried it out; check its state "

@@ -172,7 +172,8 @@ class Client(SyncOperations, ClientBase):
             while True:
                 out = link.data_to_send()  # exchange.output(), without the call
                 if out:
-                    written = True
+                    # the request is out once an exchange is open (RESYNC's RSTs are not it)
+                    written = written or link.busy or exchange.done
                     if traced:
                         self._traced_sent(out)
                     transport.write(out)

@@ -228,6 +228,7 @@ class _ProtocolTransport(AsyncTransport):
         protocol.answer = answer
         try:
             await protocol.wait_until(loop, loop.time() + timeout)
+            taken = protocol.answer is None  # data_received gave it its answer
         finally:
             protocol.waiter = None
             protocol.answer = None
@@ -235,6 +236,9 @@ class _ProtocolTransport(AsyncTransport):
         if failed is not None:
             protocol.answer_failed = None
             raise await self._lost(failed) from failed
+        if taken:
+            # Bytes behind the answer (a loop that reads twice a turn) stay for the next read.
+            return b""
         if protocol.buffer:
             data = bytes(protocol.buffer)
             protocol.buffer.clear()
