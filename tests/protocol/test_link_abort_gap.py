@@ -16,6 +16,7 @@ from robostar.commands.control import EmergencyStop, StopHoming, StopJob
 from robostar.commands.motion import JogStop
 from robostar.protocol.frame import ACK, RST, encode_packet
 from robostar.protocol.link import (
+    EARLY_CODES,
     STOP_CODES,
     AnswerReceived,
     ExchangeComplete,
@@ -209,3 +210,55 @@ def test_aborting_a_deferred_stop_keeps_the_whole_gap() -> None:
     host.send_request(GR20, Shape.SINGLE, ABORT_AT + 0.03)
     assert host.handle_timeout(ABORT_AT + host.abort_gap) == []
     assert host.data_to_send() == b""
+
+
+BF = b"\xffBF1"  # a running jog's keepalive on channel 1
+
+
+def test_a_jogs_keepalive_goes_out_after_the_short_gap_like_a_stop() -> None:
+    """The controller stops a jog that gets no BF within 500 ms; the whole gap (the reply
+    timeout, 2 s) would stop it. BF answers a bare flag, so it is let out early as the stops."""
+    assert b"BF" in EARLY_CODES and STOP_CODES < EARLY_CODES
+    host = _aborted()
+    host.send_request(BF, Shape.SINGLE, ABORT_AT + host.abort_gap / 2)
+    assert host.data_to_send() == b""  # not before abort_gap
+    host.handle_timeout(ABORT_AT + host.abort_gap)
+    assert host.data_to_send() == frame(BF)
+    # A stale answer with data is not taken as BF's
+    events = host.receive_data(frame(GR10_ANSWER), ABORT_AT + host.abort_gap + 0.01)
+    assert answers(events) == [] and any(isinstance(e, Ignored) for e in events)
+    events = host.receive_data(frame(OK), ABORT_AT + host.abort_gap + 0.02)
+    assert answers(events) == [OK]
+
+
+@pytest.mark.parametrize("packet", [b"", b"\xff"], ids=["empty", "dummy byte alone"])
+def test_a_packet_without_a_flag_in_an_early_stop_breaks_a_rule_not_the_link(
+    packet: bytes,
+) -> None:
+    """A hostile or broken controller answering an early stop with a packet that holds no
+    flag: the rule is broken (RST, ExchangeFailed), as outside an early stop; nothing raises."""
+    host = _aborted()
+    host.send_request(CF, Shape.SINGLE, ABORT_AT + host.abort_gap)
+    assert host.data_to_send() == frame(CF)
+    events = host.receive_data(frame(packet), ABORT_AT + host.abort_gap + 0.01)
+    [failed] = [e for e in events if isinstance(e, ExchangeFailed)]
+    assert failed.reason is FailReason.RULE
+    assert host.data_to_send() == RST_B
+
+
+def test_a_request_after_the_whole_gap_is_not_early_and_goes_at_once() -> None:
+    """Nobody woke the link when its gap ended (a blocking client between calls): a stop long
+    after is an ordinary request (data in its answer is not ignored as stale), and a request
+    after it goes out at once, with no second gap."""
+    host = _aborted()
+    later = ABORT_AT + 100.0
+    host.send_request(CF, Shape.SINGLE, later)
+    assert host.data_to_send() == frame(CF)
+    events = host.receive_data(frame(OK), later + 0.01)
+    assert answers(events) == [OK] and host.data_to_send() == ACK_B
+    assert host.state is State.IDLE
+    host.send_request(GR20, Shape.SINGLE, later + 0.02)
+    assert host.data_to_send() == frame(GR20)
+    host2 = _aborted()
+    host2.send_request(GR20, Shape.SINGLE, later)  # a read, too, goes at once
+    assert host2.data_to_send() == frame(GR20)

@@ -38,6 +38,7 @@ from robostar.protocol.frame import (
 from robostar.protocol.packets import Shape, split_answer
 
 __all__ = [
+    "EARLY_CODES",
     "STOP_CODES",
     "TRANSITIONS",
     "After",
@@ -70,8 +71,11 @@ MAX_MULTI_PACKETS = 10_002
 its announcement and END); past it the answer is cut with RST."""
 STOP_CODES = frozenset((b"CF", b"CD", b"CI", b"BG"))
 """The stops (CF emergency stop, CD job stop, CI homing stop, BG jog stop; the line server's
-``STOPS``): the only requests let out ``abort_gap`` after this end's own abort, before the
-whole quiet gap. Each answers a bare flag."""
+``STOPS``). Each answers a bare flag."""
+EARLY_CODES = STOP_CODES | {b"BF"}
+"""The only requests let out ``abort_gap`` after this end's own abort, before the whole quiet
+gap: the stops, and a running jog's keepalive (BF), which the controller needs within 500 ms
+or it stops the jog itself; like the stops it answers a bare flag."""
 MAX_BACKLOG = 64
 """Frames held for an application that has its turn when more arrive (requests pipelined
 behind the one being handled); more are dropped and counted in ``overrun_frames``."""
@@ -899,7 +903,10 @@ class HostLink(Link):
     def _is_stop_now(self, data: bytes) -> bool:
         """In the gap after our own abort: may this request go out now, before the gap ends?"""
         stop_at = self._stop_at
-        return stop_at is not None and data[1:3] in STOP_CODES and self._now >= stop_at
+        if stop_at is None or data[1:3] not in EARLY_CODES:
+            return False
+        # Once the whole gap is over a stop is no longer early: it goes out as any request.
+        return stop_at <= self._now < self._quiet_at
 
     def _abort(self, data: bytes) -> None:
         self._aborting = True
@@ -913,7 +920,10 @@ class HostLink(Link):
             raise LinkRuleError("host", self.state.value, Input.SEND_REQUEST.value, "one waits")
         encode_packet(data)  # a bad request is refused now, not when the gap ends
         self._deferred = (data, self._pending_shape, self._pending_once, self._pending_max)
-        if self._stop_at is not None and data[1:3] in STOP_CODES:
+        if self._now >= self._quiet_at:
+            # The line has been quiet for the whole gap already (nobody asked since): go.
+            self._send_deferred(early=False)
+        elif self._stop_at is not None and data[1:3] in EARLY_CODES:
             if self._is_stop_now(data):
                 self._send_deferred(early=True)
             else:  # wake when a stop may go
@@ -981,7 +991,7 @@ class HostLink(Link):
         if stop_at is not None:
             self._stop_at = max(stop_at, now + min(self.abort_gap, left))
             deferred = self._deferred
-            if deferred is not None and deferred[0][1:3] in STOP_CODES:
+            if deferred is not None and deferred[0][1:3] in EARLY_CODES:
                 self._deadline = min(self._quiet_at, self._stop_at)
 
     def _is_resend(self, data: bytes, now: float) -> bool:
@@ -1010,7 +1020,9 @@ class HostLink(Link):
 
     def _h_answer(self, data: bytes) -> None:
         self._corrupt = 0  # _good_packet(), inline
-        if self._stop_early and (_flag_of(data) == FLAG_END or split_answer(data).body):
+        if self._stop_early and (
+            _flag_of(data) == FLAG_END or len(data) > (2 if data[:1] == b"\xff" else 1)
+        ):
             # A stop answers a bare flag: data (or an END) is the aborted exchange's, still
             # arriving. Not ACKed (the controller dropped that exchange at our RST).
             self._emit(Ignored("stale packet with data in a stop's answer", self.state))
