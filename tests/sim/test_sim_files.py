@@ -252,3 +252,25 @@ def test_fh_reads_the_history_with_the_work_timer():
     assert (oldest.day, oldest.hours, oldest.minutes, oldest.seconds) == (0, 1, 2, 5)
     assert (oldest.text, oldest.detail) == ("T/P Emergency", "pendant")
     assert newest.text == "Run Fail"
+
+
+def test_a_channel_holds_no_more_files_than_one_fd_answer_lists() -> None:
+    """FD's answer is capped at what a channel holds (a JOB and a PNT file per JOB number and
+    END): the simulator refuses a new file past it, so its directory always lists whole."""
+    from robostar import Client
+    from robostar.types import Point
+    from robostar.commands.files import ListFiles
+    from robostar.errors import ControllerError
+    from robostar.sim.ops_files import MAX_FILES
+
+    assert MAX_FILES == ListFiles.MAX_PACKETS - 1 == 402
+    points = {1: Point((1.0, 2.0, 3.0, 0.0))}
+    with Client("sim://", timeout=1.0) as client:
+        held = len(client.list_files(1))
+        for i in range(MAX_FILES - held):
+            client.upload_points(1, f"P{i:04d}.PNT", points, number=0)
+        assert len(client.list_files(1)) == MAX_FILES  # listed whole, under the cap
+        with pytest.raises(ControllerError):
+            client.upload_points(1, "MORE.PNT", points, number=0)
+        client.upload_points(1, "P0000.PNT", points, number=0)  # rewriting one still works
+        assert len(client.list_files(1)) == MAX_FILES

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from robostar.commands.files import ListFiles
 from robostar.protocol.fields import FileName
 from robostar.sim.alarms import AlarmCode
 from robostar.sim.filesystem import StoredJob, StoredPoints
@@ -20,6 +21,9 @@ from robostar.types import (
 )
 
 __all__ = ["FileOps"]
+
+MAX_FILES = ListFiles.MAX_PACKETS - 1
+"""Files a channel holds at most: what one FD answer lists (a packet per file, then END)."""
 
 
 class FileOps(ModelBase):
@@ -127,6 +131,9 @@ class FileOps(ModelBase):
         if self._in_use(ch, name):
             raise Refused(f"{name} is the running job of channel {ch.number}")
         stored = ch.files.get(name)
+        if stored is None and sum(1 for _ in ch.files) >= MAX_FILES:
+            # A directory FD can list whole: a JOB and a PNT file per JOB number (0-200).
+            raise Refused(f"channel {ch.number} holds {MAX_FILES} files, its most")
         if isinstance(stored, StoredJob) and stored.number != job_number:
             raise self._alarm_refusal(
                 AlarmCode.JOB_NUMBER,
