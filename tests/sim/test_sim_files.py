@@ -258,10 +258,10 @@ def test_a_channel_holds_no_more_files_than_one_fd_answer_lists() -> None:
     """FD's answer is capped at what a channel holds (a JOB and a PNT file per JOB number and
     END): the simulator refuses a new file past it, so its directory always lists whole."""
     from robostar import Client
-    from robostar.types import Point
     from robostar.commands.files import ListFiles
     from robostar.errors import ControllerError
     from robostar.sim.ops_files import MAX_FILES
+    from robostar.types import Point
 
     assert MAX_FILES == ListFiles.MAX_PACKETS - 1 == 402
     points = {1: Point((1.0, 2.0, 3.0, 0.0))}
