@@ -189,6 +189,23 @@ def _resync() -> HostLink:
     return link
 
 
+def _stop_after_abort(after: float) -> Callable[[], HostLink]:
+    """A stop (CF) sent ``after`` s after our own abort: early (within the quiet gap, after
+    ``abort_gap``), where an answer with data is stale and ignored; or once the gap is over,
+    as any request."""
+
+    def setup() -> HostLink:
+        link = _waiting(Shape.SINGLE)()
+        link.abort(10.1)
+        link.data_to_send()
+        link.send_request(b"\xffCF", Shape.SINGLE, 10.1 + after)
+        link.handle_timeout(10.1 + after)
+        assert link.data_to_send().endswith(encode_packet(b"\xffCF"))
+        return link
+
+    return setup
+
+
 SETUPS: dict[str, Callable[[], HostLink]] = {
     "single": _waiting(Shape.SINGLE),
     "multi": _waiting(Shape.MULTI),
@@ -202,6 +219,8 @@ SETUPS: dict[str, Callable[[], HostLink]] = {
     "a copy taken for a resend": _maybe_resent,
     "idle": _idle,
     "resync": _resync,
+    "an early stop": _stop_after_abort(0.06),
+    "a stop after the whole gap": _stop_after_abort(100.0),
 }
 
 
@@ -236,7 +255,7 @@ def test_a_clean_answer_in_one_step_is_what_receive_data_does(name: str, later: 
     # Only a single exchange waiting for its answer takes one in one step: every OK answer
     # arriving whole (a copy of the answer ACKed last unless it is taken for a resend).
     ok = [p for p in map(lone_frame, READS) if p is not None and p.lstrip(b"\xff")[:1] == b"0"]
-    if name in ("single", "after a NAK", "after a corrupt answer"):
+    if name in ("single", "after a NAK", "after a corrupt answer", "a stop after the whole gap"):
         assert taken == len(ok) >= 8
     elif name.startswith("after an answer") or name == "a copy taken for a resend":
         assert taken in (len(ok), len(ok) - 1)
