@@ -11,6 +11,8 @@ The clock is set by hand, as in test_link.py.
 from __future__ import annotations
 
 import pytest
+from hypothesis import example, given, settings
+from hypothesis import strategies as st
 
 from robostar.commands.control import EmergencyStop, StopHoming, StopJob
 from robostar.commands.motion import JogStop
@@ -262,3 +264,75 @@ def test_a_request_after_the_whole_gap_is_not_early_and_goes_at_once() -> None:
     host2 = _aborted()
     host2.send_request(GR20, Shape.SINGLE, later)  # a read, too, goes at once
     assert host2.data_to_send() == frame(GR20)
+
+
+_POOL = [
+    frame(OK),
+    frame(b"\xff" + OK),
+    frame(GR10_ANSWER),
+    frame(GR20_ANSWER),
+    frame(END),
+    frame(b""),
+    frame(b"\xff"),
+    frame(b"2"),
+    frame(b"9"),
+    ACK_B,
+    RST_B,
+    bytes((0x15,)),  # NAK
+    frame(GR10_ANSWER)[:3],  # a frame cut short
+    b"\x00junk",
+]
+_STEPS = st.sampled_from([0.0, 0.01, 0.03, 0.06, 0.3, 2.5])  # around abort_gap and the gaps
+_OPS = st.one_of(
+    st.tuples(st.just("send"), st.sampled_from([GR10, CF, BF]), _STEPS),
+    st.tuples(st.just("abort"), st.none(), _STEPS),
+    st.tuples(st.just("receive"), st.sampled_from(_POOL), _STEPS),
+    st.tuples(st.just("tick"), st.none(), _STEPS),
+)
+
+
+@settings(max_examples=400)
+@given(st.lists(_OPS, max_size=30))
+@example(
+    [("send", GR10, 0.0), ("abort", None, 0.0), ("send", CF, 0.06), ("receive", frame(b""), 0.0)]
+)
+@example(
+    [
+        ("send", GR10, 0.0),
+        ("abort", None, 0.0),
+        ("send", BF, 0.06),
+        ("receive", frame(b"\xff"), 0.0),
+    ]
+)
+def test_aborts_stops_and_any_controller_input_never_raise_nor_wedge_the_link(
+    ops: list[tuple[str, bytes | None, float]],
+) -> None:
+    """Aborts, early and late stops, keepalives and whatever a controller sends, in any order
+    and timing: the link never raises, and whenever it is not idle a timer runs, so that
+    time alone brings it back to idle."""
+    host = HostLink()
+    now = 0.0
+    for op, data, dt in ops:
+        now += dt
+        if op == "send" and data is not None:
+            if host.idle or (host.state is State.RESYNC and host._deferred is None):
+                host.send_request(data, Shape.SINGLE, now, once=data != GR10)
+        elif op == "abort" and (host.busy or host._deferred is not None):
+            host.abort(now)
+        elif op == "receive" and data is not None:
+            host.receive_data(data, now)
+        elif op == "tick":
+            deadline = host.next_deadline()
+            if deadline is not None and deadline <= now:
+                host.handle_timeout(now)
+        host.data_to_send()
+        if not host.idle:
+            assert host.next_deadline() is not None, host.state
+    for _ in range(200):  # time alone ends everything
+        deadline = host.next_deadline()
+        if deadline is None:
+            break
+        now = max(now, deadline)
+        host.handle_timeout(now)
+        host.data_to_send()
+    assert host.idle and host._deferred is None
