@@ -920,14 +920,8 @@ class HostLink(Link):
             raise LinkRuleError("host", self.state.value, Input.SEND_REQUEST.value, "one waits")
         encode_packet(data)  # a bad request is refused now, not when the gap ends
         self._deferred = (data, self._pending_shape, self._pending_once, self._pending_max)
-        if self._now >= self._quiet_at:
-            # The line has been quiet for the whole gap already (nobody asked since): go.
-            self._send_deferred(early=False)
-        elif self._stop_at is not None and data[1:3] in EARLY_CODES:
-            if self._is_stop_now(data):
-                self._send_deferred(early=True)
-            else:  # wake when a stop may go
-                self._deadline = min(self._quiet_at, self._stop_at)
+        # The gap may be over already (a blocking client's link is not woken between calls).
+        self._send_when_due()
 
     def _h_drop_deferred(self, data: bytes) -> None:
         if self._deferred is not None:
@@ -936,15 +930,28 @@ class HostLink(Link):
             self._emit(ExchangeFailed(FailReason.ABORTED, self.state, "aborted before it was sent"))
 
     def _h_resync_done(self, data: bytes) -> None:
-        if self._now < self._quiet_at:
-            # Woken before the gap's end for a stop waiting for ``abort_gap``.
-            deferred = self._deferred
-            if deferred is not None and self._is_stop_now(deferred[0]):
-                self._send_deferred(early=True)
-            else:
-                self._deadline = self._quiet_at
+        self._send_when_due()
+
+    def _send_when_due(self) -> None:
+        """End the resync (the deferred request, if any, goes out) once the line has been
+        quiet for the whole gap; before that, send a deferred stop whose ``abort_gap`` has
+        passed, or wait for the first of the two."""
+        if self._now >= self._quiet_at:
+            self._send_deferred(early=False)
             return
-        self._send_deferred(early=False)
+        deferred = self._deferred
+        if deferred is not None and self._is_stop_now(deferred[0]):
+            self._send_deferred(early=True)
+        else:
+            self._deadline = self._wake_at()
+
+    def _wake_at(self) -> float:
+        """When the resync's timer is due: the gap's end, or a deferred stop's ``abort_gap``
+        if that comes first."""
+        deferred = self._deferred
+        if self._stop_at is not None and deferred is not None and deferred[0][1:3] in EARLY_CODES:
+            return min(self._quiet_at, self._stop_at)
+        return self._quiet_at
 
     def _send_deferred(self, *, early: bool) -> None:
         self.state = State.IDLE
@@ -986,13 +993,10 @@ class HostLink(Link):
         now = self._now
         left = max(0.0, self._resync_until - now)
         self._quiet_at = now + min(self.resync_gap, left)
-        self._deadline = self._quiet_at
         stop_at = self._stop_at
         if stop_at is not None:
             self._stop_at = max(stop_at, now + min(self.abort_gap, left))
-            deferred = self._deferred
-            if deferred is not None and deferred[0][1:3] in EARLY_CODES:
-                self._deadline = min(self._quiet_at, self._stop_at)
+        self._deadline = self._wake_at()
 
     def _is_resend(self, data: bytes, now: float) -> bool:
         """Is ``data``, arriving at ``now``, the controller resending the answer we ACKed last
