@@ -153,16 +153,22 @@ class Exchange:
         return deadline
 
     def receive(self, data: bytes, now: float) -> None:
-        if self._single:
-            packet = self.link.receive_clean_answer(data, now)
-            if packet is not None:
-                # What _handle does with the events receive_data would have returned
-                # (AnswerReceived with flag 0x30, then ExchangeComplete).
-                self._packets.append(packet)
-                self._answer_progress(packet)
-                self.done = True
-                return
+        if self._single and self._took_clean_answer(data, now):
+            return
         self._handle(self.link.receive_data(data, now), now)
+
+    def _took_clean_answer(self, data: bytes, now: float) -> bool:
+        """A SINGLE exchange's clean answer, in one step (HostLink.receive_clean_answer); False
+        when the rules must see ``data`` (then nothing changed)."""
+        packet = self.link.receive_clean_answer(data, now)
+        if packet is None:
+            return False
+        # What _handle does with the events receive_data would have returned (AnswerReceived
+        # with flag 0x30, then ExchangeComplete).
+        self._packets.append(packet)
+        self._answer_progress(packet)
+        self.done = True
+        return True
 
     def answer_at_once(self, data: bytes, now: float) -> bytes | None:
         """Take a SINGLE exchange's clean answer where it lands (an
@@ -170,14 +176,9 @@ class Exchange:
         exchange is done and this returns the ACK to write at once; otherwise None, nothing
         changed (give ``data`` to :meth:`receive`). Only for an exchange without progress
         (its callback must not run inside a transport's)."""
-        if not self._single:
-            return None
-        packet = self.link.receive_clean_answer(data, now)
-        if packet is None:
-            return None
-        self._packets.append(packet)
-        self.done = True
-        return self.link.data_to_send()
+        if self._single and self._took_clean_answer(data, now):
+            return self.link.data_to_send()
+        return None
 
     def tick(self, now: float) -> None:
         self._handle(self.link.handle_timeout(now), now)
