@@ -219,10 +219,14 @@ class _ProtocolTransport(AsyncTransport):
 
     async def read_answering(self, timeout: float, answer: Answerer) -> bytes:
         protocol = self._protocol
-        if not self._own_read or protocol is None or protocol.buffer or protocol.lost:
+        if (
+            not self._own_read
+            or protocol is None
+            or protocol.buffer
+            or protocol.lost
+            or timeout <= 0
+        ):
             return await self.read(timeout)  # nothing to offer, or read() says what is wrong
-        if timeout <= 0:
-            return await self.read(timeout)
         # read()'s wait, with the answerer in place while it lasts
         loop = asyncio.get_running_loop()
         protocol.answer = answer
@@ -239,13 +243,7 @@ class _ProtocolTransport(AsyncTransport):
         if taken:
             # Bytes behind the answer (a loop that reads twice a turn) stay for the next read.
             return b""
-        if protocol.buffer:
-            data = bytes(protocol.buffer)
-            protocol.buffer.clear()
-            return data
-        if protocol.lost:
-            raise await self._lost(protocol.lost_reason)
-        return b""
+        return await self._what_came(protocol)
 
     async def read(self, timeout: float) -> bytes:
         protocol = self._protocol
@@ -257,6 +255,10 @@ class _ProtocolTransport(AsyncTransport):
                 await protocol.wait_until(loop, loop.time() + timeout)
             finally:
                 protocol.waiter = None
+        return await self._what_came(protocol)
+
+    async def _what_came(self, protocol: LineProtocol) -> bytes:
+        """After a wait: the bytes that came, else the line's loss, else nothing."""
         if protocol.buffer:
             data = bytes(protocol.buffer)
             protocol.buffer.clear()
