@@ -320,9 +320,9 @@ def _against_pymodbus(samples: dict[str, list[_Sample]], results: dict[str, Any]
                 cpu < 1.0,
             )
         )
-        floor_name = _floor_of(f"robostar {kind}")
-        pairs_floor = list(zip(ours, samples[floor_name], strict=True))
-        to_floor = median(a.cpu_us / b.cpu_us for a, b in pairs_floor)
+        # _report's own per-round ratio against the matching floor, taken there
+        entry = results["contenders"][f"robostar {kind} AA, canned"]
+        floor_name, to_floor = entry["floor"], entry["cpu_vs_floor"]
         results[f"vs_floor_{kind}"] = {"client_cpu": to_floor, "floor": floor_name}
         rows.append(
             Row(
