@@ -18,6 +18,7 @@ import urllib.request
 from robostar.errors import PortError
 from robostar.transport.aio import AsyncTcpTransport, LineProtocol
 from robostar.transport.tcp import TcpTransport
+from robostar.transport.url import netloc
 
 __all__ = ["AsyncServeTransport", "ServeTransport", "resolve_line", "serve_url"]
 
@@ -25,14 +26,9 @@ DEFAULT_API_PORT = 8470
 """The local API's port when a serve:// URL names none."""
 
 
-def _netloc(host: str, port: int) -> str:
-    """``HOST:PORT``, an IPv6 address in brackets (the parsed URL gave it without them)."""
-    return f"[{host}]:{port}" if ":" in host else f"{host}:{port}"
-
-
 def serve_url(api_host: str, api_port: int, line: str) -> str:
     """The ``serve://`` URL of ``line`` behind the API at ``api_host:api_port``."""
-    return f"serve://{_netloc(api_host, api_port)}/{line}"
+    return f"serve://{netloc(api_host, api_port)}/{line}"
 
 
 def resolve_line(
@@ -41,7 +37,7 @@ def resolve_line(
     """Ask the server's API where ``line``'s N1 face listens; PortError saying why not."""
     where = serve_url(api_host, api_port, line)
     path = urllib.parse.quote(line, safe="")
-    url = f"http://{_netloc(api_host, api_port)}/lines/{path}/n1"
+    url = f"http://{netloc(api_host, api_port)}/lines/{path}/n1"
     request = urllib.request.Request(url)
     if token:
         request.add_header("Authorization", f"Bearer {token}")

@@ -29,6 +29,7 @@ __all__ = [
     "Endpoint",
     "Kind",
     "coerce_options",
+    "netloc",
     "parse_url",
 ]
 
@@ -129,6 +130,12 @@ def coerce_options(
         except (TypeError, ValueError) as exc:
             raise UsageError(f"{url}: option {name}: {exc}") from None
     return result
+
+
+def netloc(host: str, port: int) -> str:
+    """``HOST:PORT`` as a URL writes it: an IPv6 address in brackets (:func:`parse_url` gives
+    the host without them)."""
+    return f"[{host}]:{port}" if ":" in host else f"{host}:{port}"
 
 
 def parse_url(url: str, options: Mapping[str, object] | None = None) -> Endpoint:

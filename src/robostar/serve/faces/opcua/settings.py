@@ -13,6 +13,7 @@ import platformdirs
 from robostar.commands.variables import ReadGlobalFloat, ReadGlobalInt
 from robostar.errors import UsageError
 from robostar.serving import is_loopback, parse_listen
+from robostar.transport.url import netloc
 
 __all__ = ["OpcUaSettings", "settings_from"]
 
@@ -58,8 +59,7 @@ class OpcUaSettings:
 
     def url(self, port: int) -> str:
         """``opc.tcp://HOST:PORT/`` for this host (an IPv6 address in brackets)."""
-        host = f"[{self.host}]" if ":" in self.host else self.host
-        return f"opc.tcp://{host}:{port}/"
+        return f"opc.tcp://{netloc(self.host, port)}/"
 
 
 def _flag(options: Mapping[str, Any], key: str) -> bool:

@@ -34,6 +34,7 @@ from typing import Any
 from robostar.errors import UsageError
 from robostar.serve.http_guard import is_loopback_name
 from robostar.serve.server import LineServer
+from robostar.transport.url import netloc
 
 __all__ = ["DEFAULT_LISTEN", "WebFace", "create"]
 
@@ -110,8 +111,7 @@ class WebFace:
     @property
     def url(self) -> str:
         scheme = "https" if self._tls is not None else "http"
-        host = f"[{self.host}]" if ":" in self.host else self.host
-        return f"{scheme}://{host}:{self.port}"
+        return f"{scheme}://{netloc(self.host, self.port)}"
 
     async def start(self) -> None:
         import uvicorn
