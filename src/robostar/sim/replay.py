@@ -38,7 +38,7 @@ __all__ = [
     "serve_replay",
 ]
 
-_AD_REQUEST = encode_packet(b"\xffAD")
+_AD_REQUEST = encode_packet(ReadInfo().encode())
 
 log = logging.getLogger(__name__)
 
