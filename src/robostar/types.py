@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import enum
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 __all__ = [
     "Alarm",
@@ -97,6 +98,9 @@ class GlobalKind(enum.IntEnum):
 class ChannelStatus:
     """One channel's AA status byte."""
 
+    BY_BITS: ClassVar[tuple[ChannelStatus, ...]]
+    """Every status a byte can hold, by its six low bits (``value & 0x3F``), made once."""
+
     servo_on: bool = False
     origin: bool = False
     alarm: bool = False
@@ -120,7 +124,7 @@ class ChannelStatus:
         if cls is ChannelStatus:
             # Frozen and equal field by field: the one made beforehand for these six bits is
             # as good as a new one, and a status read builds none.
-            return _CHANNEL_STATUSES[value & 0x3F]
+            return ChannelStatus.BY_BITS[value & 0x3F]
         return cls._make(value)
 
     @classmethod
@@ -140,8 +144,7 @@ class ChannelStatus:
         return ", ".join(on) if on else "-"
 
 
-_CHANNEL_STATUSES = tuple(ChannelStatus._make(bits) for bits in range(0x40))
-"""Every status a byte can hold (its six low bits), made once."""
+ChannelStatus.BY_BITS = tuple(ChannelStatus._make(bits) for bits in range(0x40))
 
 
 @dataclass(frozen=True, slots=True)

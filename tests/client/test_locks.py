@@ -233,3 +233,39 @@ def test_cancelling_tasks_at_any_moment_never_breaks_a_shared_async_client() -> 
     with SimServer(VirtualController(SimConfig())) as server:
         cancelled, finished = asyncio.run(main(server.url))
     assert cancelled == 300 and finished == 1
+
+
+def test_threads_hammering_the_lock_never_overlap_and_never_stall() -> None:
+    # The fast path (one C call when free) and the slow path (waiters, urgent first) mixed:
+    # at most one holder at any time, every acquire served, no lost wake-up (a stall would
+    # hit the timeout).
+    lock = PriorityLock()
+    inside = 0
+    overlaps = 0
+    served = [0] * 6
+
+    def work(index: int) -> None:
+        nonlocal inside, overlaps
+        urgent = index == 0
+        for _ in range(2000):
+            lock.acquire(urgent=urgent)
+            try:
+                inside += 1
+                if inside != 1:
+                    overlaps += 1
+                if not served[index] % 50:
+                    time.sleep(0)  # hand the GIL over while holding, now and then
+                inside -= 1
+                served[index] += 1
+            finally:
+                lock.release()
+
+    threads = [threading.Thread(target=work, args=(i,)) for i in range(len(served))]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join(15)
+    assert not any(thread.is_alive() for thread in threads)
+    assert overlaps == 0 and served == [2000] * len(served)
+    with lock.hold(urgent=True):  # and it is free at the end
+        pass

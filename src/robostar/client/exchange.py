@@ -8,7 +8,7 @@ around it only moves bytes and waits until :meth:`Exchange.deadline`.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any, cast
 
@@ -61,23 +61,12 @@ def _job_total(command: DownloadFile, first: bytes) -> int | None:
     return int(text) + 2 if text.isdigit() else None
 
 
-_KINDS: dict[type, tuple[bool, bool]] = {}
-
-
-def _kind(command: Command[Any]) -> tuple[bool, bool]:
-    """Is ``command`` an FB upload, an FA download? (Asked of its class once: Command is an
-    ABC, and an isinstance check through ABCMeta costs more than the dictionary.)"""
-    kind = _KINDS.get(type(command))
-    if kind is None:
-        kind = _KINDS[type(command)] = (
-            isinstance(command, UploadFile),
-            isinstance(command, DownloadFile),
-        )
-    return kind
-
-
 def is_upload(command: Command[Any]) -> bool:
-    return _kind(command)[0]
+    """Is ``command`` an FB upload (the one command of that shape)?"""
+    return command.SHAPE is Shape.UPLOAD
+
+
+_NO_LINES: tuple[bytes, ...] = ()
 
 
 class Exchange:
@@ -114,17 +103,21 @@ class Exchange:
         self.progress = progress
         # Encoding checks every field; a bad one raises FieldError before anything is written.
         self.request = command.encode()
-        upload, self._download = _kind(command)
-        self.upload = upload
-        self._bodies = cast(UploadFile, command).upload_bodies() if upload else []
+        shape = command.SHAPE
+        upload = self.upload = shape is Shape.UPLOAD
+        # A SINGLE exchange's clean answer is taken in one step (HostLink.receive_clean_answer).
+        self._single = shape is Shape.SINGLE
+        # FA (MULTI) counts its packets against the total its first packet announces.
+        self._download = shape is Shape.MULTI and isinstance(command, DownloadFile)
+        self._bodies: Sequence[bytes] = (
+            cast(UploadFile, command).upload_bodies() if upload else _NO_LINES
+        )
         self._next_line = 0
         self._accepted = 0
         self._packets: list[bytes] = []
         self._flag: int | None = None
         self._failure: ExchangeFailed | None = None
         self._total = len(self._bodies) if upload else None
-        # A SINGLE exchange's clean answer is taken in one step (HostLink.receive_clean_answer).
-        self._single = command.SHAPE is Shape.SINGLE
         self.done = False
 
     def start(self, now: float) -> None:
@@ -166,7 +159,8 @@ class Exchange:
         # What _handle does with the events receive_data would have returned (AnswerReceived
         # with flag 0x30, then ExchangeComplete).
         self._packets.append(packet)
-        self._answer_progress(packet)
+        if self.progress is not None:  # what _answer_progress does for a SINGLE exchange
+            self.progress(1, None)
         self.done = True
         return True
 

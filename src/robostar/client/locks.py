@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import asyncio
 import threading
+from threading import get_ident
 from collections import deque
 from collections.abc import AsyncIterator, Iterator
 from contextlib import asynccontextmanager, contextmanager
@@ -29,12 +30,15 @@ class PriorityLock:
     """A thread lock where ``urgent`` acquirers go ahead of ordinary ones."""
 
     def __init__(self) -> None:
-        # The condition's own lock, held directly (a C context manager) where no wait follows.
+        # The line itself: held by the thread whose exchange runs. Taking it when it is free
+        # and nobody urgent waits is one C call, the usual case of every exchange.
+        self._line = threading.Lock()
+        # Guards the counts of waiters below; the condition waits on it.
         self._mutex = threading.Lock()
         self._cond = threading.Condition(self._mutex)
         self._owner: int | None = None
         self._urgent = 0
-        self._waiting = 0  # threads inside wait(): only they need a notify
+        self._waiting = 0  # threads inside the slow path: only they need a notify
 
     @contextmanager
     def hold(self, *, urgent: bool = False) -> Iterator[None]:
@@ -47,20 +51,20 @@ class PriorityLock:
     def acquire(self, *, urgent: bool = False) -> None:
         """Take the lock (an urgent caller ahead of ordinary waiters); pair with
         :meth:`release`. :meth:`hold` does both."""
-        me = threading.get_ident()
+        me = get_ident()
+        if not self._urgent and self._line.acquire(False):
+            self._owner = me
+            return
+        if self._owner == me:
+            raise UsageError(_REENTRY)
         with self._mutex:
-            owner = self._owner
-            if owner == me:
-                raise UsageError(_REENTRY)
-            if owner is None and not self._urgent:
-                # Free, and no urgent caller waits: nobody to step aside for or to wake.
-                self._owner = me
-                return
             if urgent:
                 self._urgent += 1
+            # Counted before the line is tried: a release after a failed try sees the count
+            # and notifies (under the mutex, so not before this thread waits).
             self._waiting += 1
             try:
-                while self._owner is not None or (self._urgent and not urgent):
+                while (self._urgent and not urgent) or not self._line.acquire(False):
                     self._cond.wait()
             finally:
                 self._waiting -= 1
@@ -69,12 +73,13 @@ class PriorityLock:
                     # Ordinary waiters may go once no urgent one is left.
                     if self._waiting:
                         self._cond.notify_all()
-            self._owner = me
+        self._owner = me
 
     def release(self) -> None:
-        with self._mutex:
-            self._owner = None
-            if self._waiting:
+        self._owner = None
+        self._line.release()
+        if self._waiting:
+            with self._mutex:
                 self._cond.notify_all()
 
 

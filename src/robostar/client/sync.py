@@ -165,12 +165,11 @@ class Client(SyncOperations, ClientBase):
             if stray:
                 self._drain(stray)
                 now = clock()
-            elif out := link.data_to_send():  # what _drain writes after its reads
-                self._traced_sent(out)
-                transport.write(out)
             exchange.start(now)
             while True:
-                out = link.data_to_send()  # exchange.output(), without the call
+                # exchange.output(), without the call (the first time: anything the idle link
+                # had to say, then the request, in that order)
+                out = link.data_to_send()
                 if out:
                     # the request is out once an exchange is open (RESYNC's RSTs are not it)
                     written = written or link.busy or exchange.done
@@ -182,7 +181,8 @@ class Client(SyncOperations, ClientBase):
                 deadline = link.next_deadline()
                 if deadline is None:
                     deadline = exchange.deadline()  # raises: the link must be timing a wait
-                data = transport.read(max(deadline - clock(), 0.0))
+                wait = deadline - clock()
+                data = transport.read(wait if wait > 0.0 else 0.0)
                 now = clock()
                 if data:
                     if traced:

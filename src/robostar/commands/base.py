@@ -238,6 +238,11 @@ class NoParams:
     """Mixin for a request with no fields after ``FF G1 G2``."""
 
     __slots__ = ()
+    _HEAD: bytes  # Command's
+
+    def encode(self) -> bytes:
+        """The request packet's data: ``FF G1 G2`` and nothing after it."""
+        return self._HEAD
 
     def encode_params(self) -> bytes:
         return b""

@@ -51,8 +51,9 @@ class ReadStatus(NoParams, Command[tuple[ChannelStatus, ChannelStatus, ChannelSt
             if len(packet) == 4 and packet[0] == FLAG_OK:
                 one, two, three = packet[1], packet[2], packet[3]
                 if one & 0xC0 == two & 0xC0 == three & 0xC0 == 0x80:
-                    status = ChannelStatus.from_byte
-                    return (status(one), status(two), status(three))
+                    # ChannelStatus.from_byte's table, read directly (three calls fewer)
+                    by_bits = ChannelStatus.BY_BITS
+                    return (by_bits[one & 0x3F], by_bits[two & 0x3F], by_bits[three & 0x3F])
         return self._decode_fields(packets)
 
     def _decode_fields(

@@ -722,7 +722,9 @@ class HostLink(Link):
         self._fire(Input.SEND_REQUEST, data)
         if self._backlog:
             self._take_backlog()
-        return self._take_events()
+        events = self._events  # _take_events(), inline: every request passes here
+        self._events = []
+        return events
 
     def receive_clean_answer(self, data: bytes, now: float) -> bytes | None:
         """The usual read of a single exchange, in one step: when ``data`` is exactly one
@@ -819,9 +821,17 @@ class HostLink(Link):
             frame = encode_packet(data)
             self._request_data = data
             self._request_frame = frame
-        self._send_frame(frame)
+        # _send_frame(frame), then _arm(timeout), inline: every request passes here.
+        self._out += frame
+        self._last_sent = frame
+        self._naks = 0
+        self._resends = 0
         self.state = State.UPLOAD_WAIT_REPLY if shape is Shape.UPLOAD else State.WAIT_ANSWER
-        self._arm(timeout)
+        deadline = now + timeout
+        limit = self._limit_at
+        if limit is not None and deadline > limit:
+            deadline = limit
+        self._deadline = deadline
 
     def _arm(self, seconds: float) -> None:
         # Link._arm, then _clamp, inline: every request and every answer arms a timer.
