@@ -11,10 +11,10 @@ from __future__ import annotations
 
 import asyncio
 import threading
-from threading import get_ident
 from collections import deque
 from collections.abc import AsyncIterator, Iterator
 from contextlib import asynccontextmanager, contextmanager
+from threading import get_ident
 
 from robostar.errors import UsageError
 
