@@ -157,14 +157,11 @@ class AsyncClient(AsyncOperations, ClientBase):
             stray = transport.read_nowait()  # the drain's first read(0), without awaiting
             if stray != b"":
                 await self._drain(stray)
-            elif out := link.data_to_send():  # what _drain writes after its reads
-                self._traced_sent(out)
-                pending = transport.write_nowait(out)
-                if pending is not None:
-                    await pending
             exchange.start(clock())
             while True:
-                out = link.data_to_send()  # exchange.output(), without the call
+                # exchange.output(), without the call (the first time: anything the idle link
+                # had to say, then the request, in that order)
+                out = link.data_to_send()
                 if out:
                     # the request is out once an exchange is open (RESYNC's RSTs are not it)
                     written = written or link.busy or exchange.done
