@@ -41,6 +41,7 @@ from starlette.responses import JSONResponse, Response, StreamingResponse
 from starlette.routing import Route
 
 from robostar.commands.base import Command
+from robostar.commands.files import UploadFile
 from robostar.commands.registry import all_commands, decode_request
 from robostar.errors import ControllerError, RobostarError, UsageError
 from robostar.serve.http_guard import (
@@ -359,7 +360,16 @@ def _command_from(body: Any) -> Command[Any]:
     if not isinstance(body, dict):
         raise UsageError('expected {"command": NAME, "args": {...}} or {"hex": "..."}')
     if "hex" in body:
-        return decode_request(bytes.fromhex(str(body["hex"])))
+        command = decode_request(bytes.fromhex(str(body["hex"])))
+        if isinstance(command, UploadFile):
+            # one packet is only FB's header: the file's lines follow in packets of their own,
+            # so the request decodes as an upload of no lines, which would wipe the file
+            raise UsageError(
+                "hex: an FB request is only the upload's header (its lines follow in packets"
+                ' of their own); send {"command": "UploadFile", "args": {"channel": ..., '
+                '"file": ..., "job_number": ..., "lines": [...]}} instead'
+            )
+        return command
     name = body.get("command")
     cls = _BY_NAME.get(str(name))
     if cls is None:
