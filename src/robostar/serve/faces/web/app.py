@@ -401,7 +401,10 @@ def build_app(server: LineServer, settings: WebSettings) -> Starlette:
         """Give the controller's lease back (only its holder can)."""
         line = line_of(request)
         account = await guard(request, Role.OPERATOR, line, "lease release")
-        released = line.lease.release(Who(account.name, "web"))
+        who = Who(account.name, "web")
+        released = line.lease.release(who)
+        # a change of who has control is part of the record, as the writes made under it are
+        line.record("lease release", who, "ok" if released else "not held: nothing released")
         return JSONResponse({"ok": True, "released": released})
 
     # -- sign in and out -----------------------------------------------------------------------
