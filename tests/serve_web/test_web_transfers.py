@@ -74,3 +74,22 @@ def test_one_transfer_at_a_time_per_line(stack: Stack) -> None:
         assert "cell1" not in transferring
         # done: the next one is served
         assert second.get("/line/cell1/files/1/DEMO.JOB/download").status_code == 200
+
+
+def test_the_file_list_is_read_from_the_controller_only_for_a_signed_in_user(
+    stack: Stack, client: httpx.Client
+) -> None:
+    page = client.get("/line/cell1/files")  # the page, for everyone; no FD for a visitor
+    assert page.status_code == 200
+    assert "Sign in to list the files" in page.text and "DEMO.JOB" not in page.text
+    with httpx.Client(base_url=stack.url, timeout=30.0) as http:
+        login(http, "vic")
+        assert "DEMO.JOB" in http.get("/line/cell1/files").text
+        transferring: set[str] = stack.face.app.state.transferring
+        transferring.add("cell1")  # as while a backup runs
+        try:
+            busy = http.get("/line/cell1/files")
+        finally:
+            transferring.discard("cell1")
+        assert busy.status_code == 200
+        assert "a backup or file download is already running" in busy.text

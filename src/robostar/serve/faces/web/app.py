@@ -222,10 +222,17 @@ def build_app(server: LineServer, settings: WebSettings) -> Starlette:
         channel = _int(request.query_params.get("channel", "1"), "channel", 1, 3)
         listing: tuple[FileRecord, ...] = ()
         error = None
-        try:
-            listing = await line.read(ListFiles(channel, "*"))
-        except RobostarError as exc:
-            error = str(exc)
+        if not account_of(request, users, sessions).may(Role.VIEWER):
+            # FD is a transfer too (up to 403 packets): not for a GET any page can fire
+            error = "Sign in to list the files: the list is read from the controller."
+        else:
+            try:
+                with one_transfer(line):
+                    listing = await line.read(ListFiles(channel, "*"))
+            except _Forbidden as exc:
+                error = exc.message
+            except RobostarError as exc:
+                error = str(exc)
         return page(request, "files.html", line=line, channel=channel, files=listing, error=error)
 
     async def file_view(request: Request) -> Response:
