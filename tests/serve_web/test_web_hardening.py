@@ -276,7 +276,7 @@ def test_password_checks_run_two_at_a_time(stack: Stack) -> None:
 
 
 # -- 7: the backup of a two-channel controller -------------------------------------------------
-def test_the_backup_of_a_two_channel_controller(stack: Stack) -> None:
+def test_the_backup_of_a_two_channel_controller(stack: Stack, users_file: Path) -> None:
     config = ServeConfig(
         lines=(LineConfig("cell2", "sim://?channels=2", poll_interval=0.05),), faces={}
     )
@@ -285,9 +285,10 @@ def test_the_backup_of_a_two_channel_controller(stack: Stack) -> None:
     try:
         stack.call(server.lines["cell2"].wait_polled())
         with (
-            own_face(stack, {}, server) as face,
+            own_face(stack, {"users": str(users_file)}, server) as face,
             httpx.Client(base_url=face.url, timeout=30) as http,
         ):
+            login(http, "vic")  # a backup needs a signed-in user (a viewer at least)
             answer = http.get("/line/cell2/backup.zip")
             assert answer.status_code == 200, answer.text
             names = zipfile.ZipFile(io.BytesIO(answer.content)).namelist()

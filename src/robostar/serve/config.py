@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import re
 import tomllib
 from collections.abc import Mapping
@@ -68,11 +69,9 @@ class LineConfig:
             raise ConfigError(f"{where}.baudrate: {self.baudrate} is not a positive number")
         for key in ("timeout", "poll_interval", "slow_interval", "history_interval"):
             value = getattr(self, key)
-            if not isinstance(value, int | float) or isinstance(value, bool) or value <= 0:
+            if not _seconds(value):
                 raise ConfigError(f"{where}.{key}: {value!r} is not a positive number of seconds")
-        if self.max_age is not None and (
-            not isinstance(self.max_age, int | float) or self.max_age < 0
-        ):
+        if self.max_age is not None and not _seconds(self.max_age, zero=True):
             raise ConfigError(f"{where}.max_age: {self.max_age!r} is not 0 or more seconds")
         for port in self.io_ports:
             if not isinstance(port, int) or not 0 <= port <= 4:
@@ -101,8 +100,18 @@ class ServeConfig:
             if name not in FACE_NAMES:
                 known = ", ".join(sorted(FACE_NAMES))
                 raise ConfigError(f"{name}: unknown section (faces: {known})")
-        if self.lease_ttl <= 0:
+        if not _seconds(self.lease_ttl):
             raise ConfigError(f"lease_ttl: {self.lease_ttl!r} is not a positive number of seconds")
+
+
+def _seconds(value: object, *, zero: bool = False) -> bool:
+    """Whether ``value`` is a finite number of seconds, more than 0 (or 0 too, with ``zero``).
+
+    TOML spells nan and inf, and ``nan <= 0`` is false: without the finiteness check a lease
+    with a nan TTL never expires, and an inf interval never polls."""
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        return False
+    return value >= 0 if zero else value > 0
 
 
 def parse_line_arg(text: str) -> LineConfig:

@@ -34,13 +34,21 @@ class LeaseInfo:
 
 
 class LeaseHeldError(RobostarError):
-    """Another consumer holds the controller's lease; the message names the holder."""
+    """The caller does not hold the controller's lease: another consumer does (the message
+    names the holder), or nobody does (``holder`` None: the caller must take it first)."""
 
-    def __init__(self, line: str, holder: LeaseInfo) -> None:
-        left = max(0.0, holder.expires_at - time.time())
-        super().__init__(
-            f"line {line}: control is held by {holder.who} (expires in {left:.0f} s unless renewed)"
-        )
+    def __init__(self, line: str, holder: LeaseInfo | None) -> None:
+        if holder is None:
+            # a free lease: the same refusal (type, HTTP 409, N1 flag), but no holder to name
+            # (it said "held by nobody (-)", as if someone called "nobody" held it)
+            message = f"line {line}: nobody holds the control lease; take it first"
+        else:
+            left = max(0.0, holder.expires_at - time.time())
+            message = (
+                f"line {line}: control is held by {holder.who}"
+                f" (expires in {left:.0f} s unless renewed)"
+            )
+        super().__init__(message)
         self.line = line
         self.holder = holder
 
@@ -85,8 +93,6 @@ class Lease:
         """Push the expiry forward; LeaseHeldError if ``who`` does not hold the lease."""
         info = self.holder
         if info is None or info.who != who:
-            if info is None:
-                raise LeaseHeldError(self.line, LeaseInfo(Who("nobody", "-"), 0.0, 0.0))
             raise LeaseHeldError(self.line, info)
         return self.acquire(who, ttl)
 

@@ -4,8 +4,15 @@
 :class:`~robostar.serving.session.Session` on a shared backend). Each connection is driven by
 ``loop.time()``: bytes in, the peer's bytes out, a timer at the peer's ``next_deadline()``, and
 a pump soon after a backend answers late (the session's ``on_ready``). A connection whose peer
-raises, or that leaves too much unread, is dropped with a log line; the others go on. Connections
-past ``max_clients`` are closed at once with a log line.
+raises, or that leaves too much unread, is dropped with a log line; the others go on.
+
+Slots are held only by connections in use: each socket has TCP keepalive with short probes (a
+peer that vanished, power cut or cable pulled, is found within about half a minute) and a
+connection that sends nothing for ``idle_timeout`` seconds is closed. A connection past
+``max_clients`` gets a session of its own that refuses every request (flag 0x32, KD saying why)
+until it falls silent for a second, so its host program learns that nothing was done, instead
+of seeing the connection vanish after it sent a request (which it must take as "outcome
+unknown").
 
 Beyond loopback the N1 protocol has no authentication of its own, so a host can be told which
 peers it serves: ``allow_from`` (addresses and networks; loopback is always allowed) and/or an
@@ -18,16 +25,27 @@ import asyncio
 import contextlib
 import ipaddress
 import logging
+import math
 import socket
 import ssl
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass
 
+from robostar.commands.files import UploadFile
+from robostar.commands.system import ReadLastError
 from robostar.errors import UsageError
+from robostar.protocol.fields import FLAG_FAILED
 from robostar.serving.address import check_host, check_port
-from robostar.serving.session import Session
+from robostar.serving.session import Backend, Refusal, Request, Session
 from robostar.transport.peer import BytePeer
 
-__all__ = ["AsyncHost", "parse_networks"]
+__all__ = [
+    "IDLE_TIMEOUT",
+    "MAX_CLIENTS",
+    "AsyncHost",
+    "HostLimits",
+    "parse_networks",
+]
 
 Network = ipaddress.IPv4Network | ipaddress.IPv6Network
 
@@ -35,6 +53,101 @@ log = logging.getLogger(__name__)
 
 MAX_PENDING = 1 << 20
 """A client that leaves this many bytes unread is dropped, so it cannot hold the server's memory."""
+MAX_CLIENTS = 16
+"""Sessions served at once, by default."""
+IDLE_TIMEOUT = 600.0
+"""Seconds a connection may send and receive nothing before it is closed, by default. The N1
+protocol has no unsolicited messages, so a host program that watches a robot asks every fraction
+of a second or few seconds; ten minutes of silence is a connection nobody uses any more (a script
+that did not close it, a program left open on a desk PC). Generous, so that no working host
+program is cut off, yet it gives the slot back within minutes rather than never."""
+KEEPALIVE_IDLE = 15
+"""Seconds of silence before the first TCP keepalive probe (Linux: TCP_KEEPIDLE)."""
+KEEPALIVE_INTERVAL = 5
+"""Seconds between probes (TCP_KEEPINTVL)."""
+KEEPALIVE_COUNT = 3
+"""Unanswered probes before the kernel drops the connection (TCP_KEEPCNT): a peer that vanished
+without a FIN (power cut, cable pulled) is found within 15 + 3 x 5 = 30 s, not hours."""
+TURN_AWAY_IDLE = 1.0
+"""Seconds of silence after which a connection past ``max_clients`` is closed: a host program
+sends its request as soon as it connects, and its KD right after the refusal."""
+TURN_AWAY_MAX = 10.0
+"""Seconds a connection past ``max_clients`` is kept at most, however busy it is."""
+
+
+@dataclass(frozen=True, slots=True)
+class HostLimits:
+    """How many sessions a host serves at once, and how long a silent one keeps its slot
+    (``idle_timeout`` None: forever, leaving dead peers to TCP keepalive)."""
+
+    max_clients: int = MAX_CLIENTS
+    idle_timeout: float | None = IDLE_TIMEOUT
+
+    def __post_init__(self) -> None:
+        _check_limits(self.max_clients, self.idle_timeout)
+
+    @classmethod
+    def from_options(cls, options: Mapping[str, object], where: str = "n1") -> HostLimits:
+        """``max_clients`` (1 or more) and ``idle_timeout`` (seconds; 0 never closes an idle
+        connection) from a config table; UsageError naming ``where.key`` when wrong."""
+        max_clients = options.get("max_clients", MAX_CLIENTS)
+        idle = options.get("idle_timeout", IDLE_TIMEOUT)
+        if isinstance(max_clients, bool) or not isinstance(max_clients, int) or max_clients < 1:
+            raise UsageError(f"{where}.max_clients: {max_clients!r} is not a whole number >= 1")
+        if (
+            isinstance(idle, bool)
+            or not isinstance(idle, int | float)
+            or not math.isfinite(idle)
+            or idle < 0
+        ):
+            raise UsageError(
+                f"{where}.idle_timeout: {idle!r} is not a number of seconds (0: never)"
+            )
+        return cls(max_clients, float(idle) if idle > 0 else None)
+
+
+def _check_limits(max_clients: object, idle_timeout: object) -> None:
+    if isinstance(max_clients, bool) or not isinstance(max_clients, int) or max_clients < 1:
+        raise UsageError(f"max_clients: {max_clients!r} is not 1 or more")
+    if idle_timeout is not None and (
+        isinstance(idle_timeout, bool)
+        or not isinstance(idle_timeout, int | float)
+        or not math.isfinite(idle_timeout)
+        or idle_timeout <= 0
+    ):
+        raise UsageError(f"idle_timeout: {idle_timeout!r} is not a number of seconds > 0 or None")
+
+
+def _keepalive(sock: socket.socket) -> None:
+    """TCP keepalive with short probes where the system lets us set them (Linux does; elsewhere
+    the system's own, often two hours)."""
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_KEEPALIVE, 1)
+    for name, value in (
+        ("TCP_KEEPIDLE", KEEPALIVE_IDLE),
+        ("TCP_KEEPINTVL", KEEPALIVE_INTERVAL),
+        ("TCP_KEEPCNT", KEEPALIVE_COUNT),
+    ):
+        option = getattr(socket, name, None)
+        if option is not None:
+            with contextlib.suppress(OSError):
+                sock.setsockopt(socket.IPPROTO_TCP, option, value)
+
+
+class _TurnAway(Backend):
+    """The backend of a connection past ``max_clients``: every request refused with the reason
+    (flag 0x32, nothing done), KD answered with it."""
+
+    def __init__(self, reason: str) -> None:
+        self.reason = reason
+
+    def handle(self, request: Request) -> None:
+        if isinstance(request.command, ReadLastError):
+            request.answer(request.session.last_error or self.reason)
+            return
+        raise Refusal(self.reason, FLAG_FAILED)
+
+    def begin_upload(self, command: UploadFile) -> None:
+        raise Refusal(self.reason, FLAG_FAILED)
 
 
 class _Connection(asyncio.Protocol):
@@ -46,6 +159,9 @@ class _Connection(asyncio.Protocol):
         self.name = "?"
         self._timer: asyncio.TimerHandle | None = None
         self._scheduled = False
+        self._idle_timer: asyncio.TimerHandle | None = None
+        self._opened = self._last_activity = self.loop.time()
+        self._turned_away = False
 
     def connection_made(self, transport: asyncio.BaseTransport) -> None:
         assert isinstance(transport, asyncio.Transport)
@@ -58,13 +174,24 @@ class _Connection(asyncio.Protocol):
             transport.abort()
             return
         if len(owner.connections) >= owner.max_clients:
-            log.warning(
-                "%s: refused %s: already %d clients (the limit)",
-                owner.name,
-                self.name,
-                owner.max_clients,
+            reason = (
+                f"{owner.name}: already {owner.max_clients} clients (the limit);"
+                " nothing was done, try again later"
             )
-            transport.abort()
+            if len(owner.turned_away) >= owner.max_clients:
+                log.warning("%s: refused %s: %s", owner.name, self.name, reason)
+                transport.abort()
+                return
+            # A session that refuses every request, for a few seconds: the host program is
+            # told its request was not done (flag 0x32, KD says why). Closing at once would
+            # leave a host that already sent a request not knowing whether it ran.
+            log.warning("%s: turning %s away: %s", owner.name, self.name, reason)
+            self._turned_away = True
+            self.peer = Session(_TurnAway(reason), name=self.name)
+            self.peer.on_ready = self._soon
+            owner.turned_away.add(self)
+            self._socket_options(transport)
+            self._idle_timer = self.loop.call_later(TURN_AWAY_IDLE, self._check_idle)
             return
         try:
             self.peer = owner.factory(self.name)
@@ -76,14 +203,45 @@ class _Connection(asyncio.Protocol):
             self.peer.on_ready = self._soon
         owner.connections.add(self)
         log.info("%s: client %s connected", owner.name, self.name)
+        self._socket_options(transport)
+        if owner.idle_timeout is not None:
+            self._idle_timer = self.loop.call_later(owner.idle_timeout, self._check_idle)
+
+    @staticmethod
+    def _socket_options(transport: asyncio.Transport) -> None:
         with contextlib.suppress(OSError, AttributeError):
             sock = transport.get_extra_info("socket")
             sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+            _keepalive(sock)
+
+    def _check_idle(self) -> None:
+        """Close the connection when nothing moved for ``idle_timeout``; else look again then.
+        (One timer per connection, moved at most once per period, not per byte.)"""
+        self._idle_timer = None
+        idle = TURN_AWAY_IDLE if self._turned_away else self.owner.idle_timeout
+        transport = self.transport
+        if idle is None or transport is None or transport.is_closing():
+            return
+        due = self._last_activity + idle
+        if self._turned_away:
+            due = min(due, self._opened + TURN_AWAY_MAX)
+        if self.loop.time() < due:
+            self._idle_timer = self.loop.call_at(due, self._check_idle)
+            return
+        if not self._turned_away:
+            log.warning(
+                "%s: closed %s: nothing sent or received for %g s (idle_timeout)",
+                self.owner.name,
+                self.name,
+                idle,
+            )
+        transport.close()
 
     def data_received(self, data: bytes) -> None:
         peer = self.peer
         if peer is None:
             return
+        self._last_activity = self.loop.time()
         try:
             peer.receive_data(data, self.loop.time())
         except Exception:
@@ -108,6 +266,7 @@ class _Connection(asyncio.Protocol):
             self._fail()
             return
         if out:
+            self._last_activity = self.loop.time()
             transport.write(out)
             if transport.get_write_buffer_size() > MAX_PENDING:
                 log.warning("%s: %s does not read; dropped", self.owner.name, self.name)
@@ -130,6 +289,9 @@ class _Connection(asyncio.Protocol):
     def connection_lost(self, exc: Exception | None) -> None:
         if self._timer is not None:
             self._timer.cancel()
+        if self._idle_timer is not None:
+            self._idle_timer.cancel()
+        self.owner.turned_away.discard(self)
         if self in self.owner.connections:
             self.owner.connections.discard(self)
             log.info("%s: client %s left", self.owner.name, self.name)
@@ -164,15 +326,19 @@ class AsyncHost:
         self,
         factory: Callable[[str], BytePeer],
         *,
-        max_clients: int = 16,
+        max_clients: int = MAX_CLIENTS,
         name: str = "n1",
+        idle_timeout: float | None = IDLE_TIMEOUT,
     ) -> None:
-        if isinstance(max_clients, bool) or not isinstance(max_clients, int) or max_clients < 1:
-            raise UsageError(f"max_clients: {max_clients!r} is not 1 or more")
+        _check_limits(max_clients, idle_timeout)
         self.factory = factory
         self.max_clients = max_clients
+        self.idle_timeout = idle_timeout
+        """Seconds a connection may be silent both ways before it is closed (None: never)."""
         self.name = name
         self.connections: set[_Connection] = set()
+        self.turned_away: set[_Connection] = set()
+        """Connections past ``max_clients``, refusing their requests until they are closed."""
         self.allow_from: tuple[Network, ...] | None = None
         self._server: asyncio.Server | None = None
 
@@ -222,11 +388,11 @@ class AsyncHost:
         server, self._server = self._server, None
         if server is not None:
             server.close()
-        for connection in list(self.connections):
+        for connection in [*self.connections, *self.turned_away]:
             connection._drop()
         # Aborted transports report connection_lost on the next loop turns.
         for _ in range(10):
-            if not self.connections:
+            if not self.connections and not self.turned_away:
                 break
             await asyncio.sleep(0)
         if server is not None:

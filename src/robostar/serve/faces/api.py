@@ -41,6 +41,7 @@ from starlette.responses import JSONResponse, Response, StreamingResponse
 from starlette.routing import Route
 
 from robostar.commands.base import Command
+from robostar.commands.files import UploadFile
 from robostar.commands.registry import all_commands, decode_request
 from robostar.errors import ControllerError, RobostarError, UsageError
 from robostar.serve.http_guard import (
@@ -278,8 +279,12 @@ def build_app(
             return got
         _, line = got
         who = api.who(request)
+        # who had control when is part of the record: every take, renewal, release and refusal
+        # is in the audit log, as the writes made under the lease are
         if request.method == "DELETE":
-            return JSONResponse({"released": line.lease.release(who)})
+            released = line.lease.release(who)
+            line.record("lease release", who, "ok" if released else "not held: nothing released")
+            return JSONResponse({"released": released})
         ttl = request.query_params.get("ttl")
         longest = max(MAX_LEASE_TTL, line.lease.ttl)
         seconds: float | None = None
@@ -291,10 +296,14 @@ def build_app(
             if not math.isfinite(seconds) or not 0 < seconds <= longest:
                 message = f"ttl: {ttl[:40]!r} is not a number of seconds > 0 and <= {longest:g}"
                 return _error(400, message, "usage")
+        what = "lease renew" if line.lease.held_by(who) else "lease take"
         try:
             info = line.lease.acquire(who, seconds)
         except LeaseHeldError as exc:
+            line.record(what, who, f"refused: {exc}")
             return _error(409, str(exc), "lease")
+        granted = line.lease.ttl if seconds is None else seconds
+        line.record(what, who, f"ok: expires in {granted:g} s unless renewed")
         return JSONResponse({"who": who.name, "since": info.since, "expires_at": info.expires_at})
 
     async def n1(request: Request) -> Response:
@@ -359,7 +368,16 @@ def _command_from(body: Any) -> Command[Any]:
     if not isinstance(body, dict):
         raise UsageError('expected {"command": NAME, "args": {...}} or {"hex": "..."}')
     if "hex" in body:
-        return decode_request(bytes.fromhex(str(body["hex"])))
+        command = decode_request(bytes.fromhex(str(body["hex"])))
+        if isinstance(command, UploadFile):
+            # one packet is only FB's header: the file's lines follow in packets of their own,
+            # so the request decodes as an upload of no lines, which would wipe the file
+            raise UsageError(
+                "hex: an FB request is only the upload's header (its lines follow in packets"
+                ' of their own); send {"command": "UploadFile", "args": {"channel": ..., '
+                '"file": ..., "job_number": ..., "lines": [...]}} instead'
+            )
+        return command
     name = body.get("command")
     cls = _BY_NAME.get(str(name))
     if cls is None:

@@ -17,7 +17,7 @@ import math
 import secrets
 import time
 import zipfile
-from collections.abc import AsyncIterator, Callable
+from collections.abc import AsyncIterator, Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, NoReturn
@@ -177,6 +177,34 @@ def build_app(server: LineServer, settings: WebSettings) -> Starlette:
             refuse(line, account, what, 403, _STALE)
         return account
 
+    def signed_in(request: Request, line: Line, what: str) -> Account:
+        """The account of a GET that holds the line for file transfers (FA), or _Forbidden
+        (audited): a signed-in user, a viewer at least. A GET carries no CSRF token, and any
+        page the operator opens can fire one (an <img src=...>); the session cookie is
+        SameSite=Strict, so such a request arrives anonymous and is refused here."""
+        account = account_of(request, users, sessions)
+        if not account.may(Role.VIEWER):
+            refuse(line, account, what, 403, _needs(Role.VIEWER))
+        return account
+
+    transferring: set[str] = set()
+    """Lines with a backup or file download for a browser running: one at a time per line, so
+    browsers cannot queue transfer after transfer ahead of the writes of the other faces."""
+
+    @contextlib.contextmanager
+    def one_transfer(line: Line) -> Iterator[None]:
+        if line.name in transferring:
+            raise _Forbidden(
+                429,
+                f"line {line.name}: a backup or file download is already running;"
+                " try again when it is done",
+            )
+        transferring.add(line.name)
+        try:
+            yield
+        finally:
+            transferring.discard(line.name)
+
     async def run(line: Line, command: Command[Any], account: Account) -> Any:
         who = Who(account.name, "web")
         return await line.execute(command, who=who, implicit_lease=True)
@@ -194,17 +222,26 @@ def build_app(server: LineServer, settings: WebSettings) -> Starlette:
         channel = _int(request.query_params.get("channel", "1"), "channel", 1, 3)
         listing: tuple[FileRecord, ...] = ()
         error = None
-        try:
-            listing = await line.read(ListFiles(channel, "*"))
-        except RobostarError as exc:
-            error = str(exc)
+        if not account_of(request, users, sessions).may(Role.VIEWER):
+            # FD is a transfer too (up to 403 packets): not for a GET any page can fire
+            error = "Sign in to list the files: the list is read from the controller."
+        else:
+            try:
+                with one_transfer(line):
+                    listing = await line.read(ListFiles(channel, "*"))
+            except _Forbidden as exc:
+                error = exc.message
+            except RobostarError as exc:
+                error = str(exc)
         return page(request, "files.html", line=line, channel=channel, files=listing, error=error)
 
     async def file_view(request: Request) -> Response:
         line = line_of(request)
-        channel, name = _file_params(request)
+        channel, name = _file_params(request)  # a bad name is a 400 for anyone: nothing sent
+        signed_in(request, line, "file view")
         coords = CoordSystem.XY if request.query_params.get("coords") == "xy" else CoordSystem.ANGLE
-        content = await line.read(DownloadFile(channel, name, coords))
+        with one_transfer(line):
+            content = await line.read(DownloadFile(channel, name, coords))
         return page(
             request,
             "file.html",
@@ -218,8 +255,10 @@ def build_app(server: LineServer, settings: WebSettings) -> Starlette:
 
     async def file_download(request: Request) -> Response:
         line = line_of(request)
-        channel, name = _file_params(request)
-        content = await line.read(DownloadFile(channel, name, CoordSystem.ANGLE))
+        channel, name = _file_params(request)  # a bad name is a 400 for anyone: nothing sent
+        signed_in(request, line, "file download")
+        with one_transfer(line):
+            content = await line.read(DownloadFile(channel, name, CoordSystem.ANGLE))
         text = _file_text(content)
         return Response(
             text,
@@ -256,8 +295,9 @@ def build_app(server: LineServer, settings: WebSettings) -> Starlette:
 
     async def backup_zip(request: Request) -> Response:
         line = line_of(request)
+        signed_in(request, line, "backup")
         buffer = io.BytesIO()
-        with zipfile.ZipFile(buffer, "w", zipfile.ZIP_DEFLATED) as archive:
+        with one_transfer(line), zipfile.ZipFile(buffer, "w", zipfile.ZIP_DEFLATED) as archive:
             for channel in _channels(line):
                 for record in await line.read(ListFiles(channel, "*")):
                     name = FileName.parse(record.name)
@@ -401,7 +441,10 @@ def build_app(server: LineServer, settings: WebSettings) -> Starlette:
         """Give the controller's lease back (only its holder can)."""
         line = line_of(request)
         account = await guard(request, Role.OPERATOR, line, "lease release")
-        released = line.lease.release(Who(account.name, "web"))
+        who = Who(account.name, "web")
+        released = line.lease.release(who)
+        # a change of who has control is part of the record, as the writes made under it are
+        line.record("lease release", who, "ok" if released else "not held: nothing released")
         return JSONResponse({"ok": True, "released": released})
 
     # -- sign in and out -----------------------------------------------------------------------
@@ -533,6 +576,7 @@ def build_app(server: LineServer, settings: WebSettings) -> Starlette:
         },
     )
     app.state.sessions = sessions
+    app.state.transferring = transferring
     return app
 
 
