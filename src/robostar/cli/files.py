@@ -223,15 +223,18 @@ def files_get(session: Session, name: str, dest: str | None, xy: bool, force: bo
                 session.channel, file, coords="xy" if xy else "angle", progress=progress
             )
     lines = file_lines(content)
-    if xy and file.is_points and dest != "-":
-        # The kind travels with the file: `files put` refuses it rather than write mm as degrees.
+    kind = "xy" if xy and file.is_points else "angle" if file.is_points else None
+    if dest == "-" and session.out.json:
+        # JSON keeps the point lines themselves; "coords" says which kind they are.
+        session.out.result({"name": str(file), "coords": kind, "lines": lines})
+        return
+    if kind == "xy":
+        # The kind travels with the file, on stdout too (it is often redirected to a file):
+        # `files put` refuses it rather than write millimetres as degrees.
         lines = [XY_HEADER, *lines]
     text = "".join(line + "\n" for line in lines)
     if dest == "-":
-        if session.out.json:
-            session.out.result({"name": str(file), "lines": lines})
-        else:
-            click.echo(text, nl=False)
+        click.echo(text, nl=False)
         return
     try:
         write_atomic(target, text.encode("ascii"))
@@ -243,6 +246,7 @@ def files_get(session: Session, name: str, dest: str | None, xy: bool, force: bo
         name=str(file),
         path=str(target),
         lines=len(lines),
+        coords=kind,
     )
 
 
