@@ -383,14 +383,23 @@ def _manifest_view(title: str, manifest: Any, folder: str) -> RenderableType:
     metavar="N",
     help="FOLDER holds timestamped generations (backup-<UTC time>); keep the newest N.",
 )
+@click.option(
+    "--replace",
+    is_flag=True,
+    help="Replace a backup in FOLDER even if it was read from another target, or from a "
+    "simulator by a controller's (or the other way round).",
+)
 @common_options()
 @pass_session
-def backup(session: Session, folder: str, keep: int | None) -> None:
+def backup(session: Session, folder: str, keep: int | None, replace: bool) -> None:
     """Save every JOB and PNT file of every channel to FOLDER, with a manifest (sha256).
 
     The backup is written to a temporary folder and swapped into place only when complete:
     an interrupted backup leaves the previous one intact. A non-empty FOLDER that is not a
-    robostar backup is refused.
+    robostar backup is refused, and so is one holding anything besides the previous backup's
+    own files (a backup replaces its folder whole). A previous backup of another target, or
+    of a simulator when this is a controller (or the other way round), is replaced only with
+    --replace.
 
     \b
     Example:
@@ -401,7 +410,7 @@ def backup(session: Session, folder: str, keep: int | None) -> None:
         session.plan([ListFiles(1, "*")], note="Then FA for every file listed, on every channel.")
     try:
         with _progress(session, "backup") as progress:
-            manifest = session.client.backup(folder, progress=progress, keep=keep)
+            manifest = session.client.backup(folder, progress=progress, keep=keep, replace=replace)
     except KeyboardInterrupt:
         session.interrupt_note = (
             f"the backup was not finished and nothing of it was kept; what {folder} held "
