@@ -41,7 +41,15 @@ from robostar.commands.identity import is_simulator_identity
 from robostar.commands.status import ReadInfo
 from robostar.errors import FieldError, RobostarError, UploadIncompleteError, UsageError
 from robostar.protocol.fields import FileName
-from robostar.types import ChannelInfo, ControllerInfo, CoordSystem, JobFile, PointFile, RobotType
+from robostar.types import (
+    ChannelInfo,
+    ControllerInfo,
+    CoordSystem,
+    FileRecord,
+    JobFile,
+    PointFile,
+    RobotType,
+)
 
 __all__ = [
     "MANIFEST",
@@ -853,20 +861,41 @@ def _preflight(
     extra: list[str] = []
     channels = sorted({u.channel for u in uploads} | (wanted if delete_extra else set()))
     channels = [c for c in channels if c in wanted]
-    present: dict[int, dict[str, str]] = {}
+    present: dict[int, dict[str, FileRecord]] = {}
     for channel in channels:
         records = yield from call(ListFiles(channel, "*"))
-        present[channel] = {FileName.parse(r.name).key: r.name for r in records}
+        present[channel] = {FileName.parse(r.name).key: r for r in records}
     ours = {(u.channel, u.file.key) for u in uploads}
+    renumbered: list[str] = []
     for upload in uploads:
         relative = _relative(upload.channel, upload.file)
-        if upload.file.key not in present[upload.channel]:
+        record = present[upload.channel].get(upload.file.key)
+        if record is None:
             new.append(relative)
             continue
         content = yield from call(DownloadFile(upload.channel, upload.file, CoordSystem.ANGLE))
-        (unchanged if _same(upload, content) else changed).append(relative)
+        if _same(upload, content):
+            unchanged.append(relative)
+            continue
+        changed.append(relative)
+        if upload.file.is_job and record.job_number != upload.job_number:
+            # The controller refuses FB of a JOB file it holds under another number (with an
+            # alarm): found here, nothing is written, rather than half-way through the writes.
+            renumbered.append(
+                f"{relative} is job number {record.job_number} on the controller, "
+                f"{upload.job_number} in the backup"
+            )
+    if renumbered:
+        raise UsageError(
+            "folder: the controller refuses to overwrite a JOB file under another job number: "
+            + "; ".join(renumbered)
+            + ". Delete it on the controller first (`robostar files rm NAME`, -c N for channel "
+            "N) so that the restore writes it anew, or leave it out with --only; nothing was "
+            "written"
+        )
     for channel in channels:
-        for key, name in present[channel].items():
+        for key, record in present[channel].items():
+            name = record.name
             if (channel, key) in ours:
                 continue
             if only is not None and not fnmatch.fnmatch(key, only.upper()):
