@@ -484,6 +484,7 @@ def restore(
         )
     if session.out.json and not (yes or preview):
         raise UsageError("--yes: a --json restore cannot ask; give --yes or --dry-run")
+    channels = _restore_channels(channels)
     seen: list[tuple[RestoreDiff, bool]] = []
 
     def confirm(diff: RestoreDiff) -> bool:
@@ -528,6 +529,22 @@ def restore(
         session.out.result(
             data, Text(f"Restored {diff.writes} file change(s) and verified them.", style="green")
         )
+
+
+def _restore_channels(own: tuple[int, ...]) -> tuple[int, ...]:
+    """The channels to restore: restore's own --channel, else the global one when it was given
+    (`robostar -c 2 restore DIR` means channel 2, as for every other command), else all."""
+    root = click.get_current_context().find_root()
+    if root.get_parameter_source("channel") is not click.core.ParameterSource.COMMANDLINE:
+        return own
+    given = int(root.params["channel"])
+    if own and given not in own:
+        raise UsageError(
+            f"--channel: -c {given} before the command and --channel "
+            f"{', '.join(map(str, own))} after it disagree; give the channels once, after "
+            "`restore` (nothing was written)"
+        )
+    return own or (given,)
 
 
 def _diff_json(diff: RestoreDiff) -> dict[str, object]:
