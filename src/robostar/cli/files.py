@@ -102,13 +102,41 @@ def read_local(path: Path, name: FileName) -> list[str]:
             "without --xy to upload it"
         )
     if name.is_points:
-        lines = [line for line in lines if line.strip()]
-        for number, line in enumerate(lines, 1):
-            try:
-                parse_point_line(line, command="FB", field=f"line {number}")
-            except FieldError as error:
-                raise UsageError(f"{path}: {error.field}: {error.message}") from None
+        return _point_lines(path, lines)
+    # A blank line at the end is an editor's newline, not a step after EOP.
+    while lines and not lines[-1].strip():
+        lines.pop()
+    if not lines:
+        # An empty file (a failed `files get NAME - > file`) would replace the job with nothing.
+        raise UsageError(f"{path} is empty; a JOB file holds its steps, MAIN to EOP")
+    if lines[0].strip().upper() != "MAIN" or lines[-1].strip().upper() != "EOP":
+        raise UsageError(
+            f"{path} is not a whole job: a JOB file's steps start with MAIN and end with EOP, "
+            f"and these start with {lines[0].strip()!r} and end with {lines[-1].strip()!r}"
+        )
     return lines
+
+
+def _point_lines(path: Path, lines: list[str]) -> list[str]:
+    """A PNT file's point lines (blank lines dropped), each checked, no point given twice."""
+    checked: list[str] = []
+    first: dict[int, int] = {}  # point number -> the line of the file that gives it
+    for number, line in enumerate(lines, 1):
+        if not line.strip():
+            continue
+        try:
+            point, _ = parse_point_line(line, command="FB", field=f"line {number}")
+        except FieldError as error:
+            raise UsageError(f"{path}: {error.field}: {error.message}") from None
+        if point in first:
+            # Uploaded as a mapping, the later line would silently replace the earlier one.
+            raise UsageError(
+                f"{path}: line {number}: point P{point:04d} is given again "
+                f"(first on line {first[point]}); give each point once"
+            )
+        first[point] = number
+        checked.append(line)
+    return checked
 
 
 def _points(lines: list[str]) -> dict[int, Point]:
