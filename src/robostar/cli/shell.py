@@ -280,6 +280,7 @@ def shell(session: Session) -> None:
             words = split_line(line)
         except click.UsageError as error:
             error.show()
+            worst = max(worst, EXIT_BAD_ARGUMENT)  # a line not run is a failure of the script
             continue
         if not words:
             continue
@@ -288,7 +289,7 @@ def shell(session: Session) -> None:
         if words[0] == "help":
             words = ["--help"]
         code = run_line(session, words)
-        worst = code if code and not worst else worst
+        worst = max(worst, code)  # the worst is the highest: 2 < 3 refused < 4 line < 130
         state.forget()
     if not interactive and worst:
         raise click.exceptions.Exit(worst)
