@@ -752,6 +752,9 @@ def restore_plan(
         for e in manifest.files
         if e.channel in wanted and (only is None or fnmatch.fnmatch(e.name.upper(), only.upper()))
     ]
+    if only is not None and not entries and not delete_extra:
+        # A typo in the pattern would otherwise restore nothing and report success.
+        _refuse_unmatched(only, manifest, wanted)
     uploads = _read_backup(root, entries)
 
     target_info = yield from call(ReadInfo())
@@ -769,12 +772,26 @@ def restore_plan(
             + "); nothing was written"
         )
     diff = yield from _preflight(uploads, restored, only, delete_extra, identity)
+    if only is not None and not (entries or diff.extra):
+        # With delete_extra the pattern may choose files of the controller only; not even one.
+        _refuse_unmatched(only, manifest, wanted)
     agreed = confirm(diff) if confirm is not None else True
     if dry_run or not agreed:
         return manifest
     writes = [u for u in uploads if _relative(u.channel, u.file) in set(diff.new + diff.changed)]
     yield from _write_phase(root, writes, diff.delete, progress)
     return with_changes(manifest, folder=str(root))
+
+
+def _refuse_unmatched(only: str, manifest: Manifest, wanted: set[int]) -> None:
+    """Refuse an ``only`` pattern that matches no file of the backup's chosen channels."""
+    held = [e.path for e in manifest.files if e.channel in wanted]
+    shown = ", ".join(held[:6]) + (f" and {len(held) - 6} more" if len(held) > 6 else "")
+    where = "" if wanted == {1, 2, 3} else f" on channel {', '.join(map(str, sorted(wanted)))}"
+    raise UsageError(
+        f"only: {only!r} matches no file of the backup{where} (it holds {shown or 'none'}); "
+        "nothing was written"
+    )
 
 
 def _write_phase(
