@@ -52,7 +52,7 @@ def test_get_put_round_trip(on: Run, as_json: AsJson, tmp_path: Path) -> None:
     as_json(on("--json", "files", "put", str(points), "--name", "MINE.PNT"))
     assert on("files", "get", "MINE.PNT", "-").stdout == points.read_text()
     xy = on("files", "get", "MINE.PNT", "-", "--xy").stdout
-    assert xy.startswith("P0001") and xy != points.read_text()
+    assert xy.startswith("#COORDS XY\nP0001") and xy != points.read_text()
 
 
 def test_put_checks_the_file_before_sending(on: Run, tmp_path: Path) -> None:

@@ -111,11 +111,12 @@ class RobostarGroup(click.Group):
         try:
             try:
                 return super().invoke(ctx)
-            except ControllerError:
-                # Read before the connection closes: did the refusal leave an alarm?
-                session = ctx.find_object(Session)
-                if session is not None:
-                    session.read_alarms_left()
+            except RobostarError as error:
+                if _refused(error):
+                    # Read before the connection closes: did the refusal leave an alarm?
+                    session = ctx.find_object(Session)
+                    if session is not None:
+                        session.read_alarms_left()
                 raise
             except KeyboardInterrupt:
                 session = ctx.find_object(Session)
@@ -141,7 +142,7 @@ class RobostarGroup(click.Group):
             out = session.out if session else Output(False)
             sent = (session.frames_sent, session.changes_sent) if session else (0, 0)
             failure = explain(error, port, *sent)
-            if isinstance(error, ControllerError) and session is not None:
+            if _refused(error) and session is not None:
                 failure = with_alarms_left(failure, session.alarms_left)
             out.failure(failure)
             ctx.exit(failure.exit_code)
@@ -165,6 +166,19 @@ class RobostarGroup(click.Group):
             hint = "Check the cable and --port; `robostar doctor` checks the line."
             out.failure(Failure(EXIT_LINE, text, hint, type(error).__name__))
             ctx.exit(EXIT_LINE)
+
+
+def _refused(error: RobostarError) -> bool:
+    """Did the controller refuse a command, itself or as what stopped a restore part-way (a
+    refusal may leave an alarm that the message should name)?"""
+    if isinstance(error, ControllerError):
+        return True
+    backup = sys.modules.get("robostar.client.backup")  # loaded if a restore was running
+    return (
+        backup is not None
+        and isinstance(error, backup.RestoreIncompleteError)
+        and isinstance(error.__cause__, ControllerError)
+    )
 
 
 _LOCAL_ERRNOS = frozenset(

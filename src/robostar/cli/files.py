@@ -102,13 +102,41 @@ def read_local(path: Path, name: FileName) -> list[str]:
             "without --xy to upload it"
         )
     if name.is_points:
-        lines = [line for line in lines if line.strip()]
-        for number, line in enumerate(lines, 1):
-            try:
-                parse_point_line(line, command="FB", field=f"line {number}")
-            except FieldError as error:
-                raise UsageError(f"{path}: {error.field}: {error.message}") from None
+        return _point_lines(path, lines)
+    # A blank line at the end is an editor's newline, not a step after EOP.
+    while lines and not lines[-1].strip():
+        lines.pop()
+    if not lines:
+        # An empty file (a failed `files get NAME - > file`) would replace the job with nothing.
+        raise UsageError(f"{path} is empty; a JOB file holds its steps, MAIN to EOP")
+    if lines[0].strip().upper() != "MAIN" or lines[-1].strip().upper() != "EOP":
+        raise UsageError(
+            f"{path} is not a whole job: a JOB file's steps start with MAIN and end with EOP, "
+            f"and these start with {lines[0].strip()!r} and end with {lines[-1].strip()!r}"
+        )
     return lines
+
+
+def _point_lines(path: Path, lines: list[str]) -> list[str]:
+    """A PNT file's point lines (blank lines dropped), each checked, no point given twice."""
+    checked: list[str] = []
+    first: dict[int, int] = {}  # point number -> the line of the file that gives it
+    for number, line in enumerate(lines, 1):
+        if not line.strip():
+            continue
+        try:
+            point, _ = parse_point_line(line, command="FB", field=f"line {number}")
+        except FieldError as error:
+            raise UsageError(f"{path}: {error.field}: {error.message}") from None
+        if point in first:
+            # Uploaded as a mapping, the later line would silently replace the earlier one.
+            raise UsageError(
+                f"{path}: line {number}: point P{point:04d} is given again "
+                f"(first on line {first[point]}); give each point once"
+            )
+        first[point] = number
+        checked.append(line)
+    return checked
 
 
 def _points(lines: list[str]) -> dict[int, Point]:
@@ -223,15 +251,18 @@ def files_get(session: Session, name: str, dest: str | None, xy: bool, force: bo
                 session.channel, file, coords="xy" if xy else "angle", progress=progress
             )
     lines = file_lines(content)
-    if xy and file.is_points and dest != "-":
-        # The kind travels with the file: `files put` refuses it rather than write mm as degrees.
+    kind = "xy" if xy and file.is_points else "angle" if file.is_points else None
+    if dest == "-" and session.out.json:
+        # JSON keeps the point lines themselves; "coords" says which kind they are.
+        session.out.result({"name": str(file), "coords": kind, "lines": lines})
+        return
+    if kind == "xy":
+        # The kind travels with the file, on stdout too (it is often redirected to a file):
+        # `files put` refuses it rather than write millimetres as degrees.
         lines = [XY_HEADER, *lines]
     text = "".join(line + "\n" for line in lines)
     if dest == "-":
-        if session.out.json:
-            session.out.result({"name": str(file), "lines": lines})
-        else:
-            click.echo(text, nl=False)
+        click.echo(text, nl=False)
         return
     try:
         write_atomic(target, text.encode("ascii"))
@@ -243,6 +274,7 @@ def files_get(session: Session, name: str, dest: str | None, xy: bool, force: bo
         name=str(file),
         path=str(target),
         lines=len(lines),
+        coords=kind,
     )
 
 
@@ -379,14 +411,23 @@ def _manifest_view(title: str, manifest: Any, folder: str) -> RenderableType:
     metavar="N",
     help="FOLDER holds timestamped generations (backup-<UTC time>); keep the newest N.",
 )
+@click.option(
+    "--replace",
+    is_flag=True,
+    help="Replace a backup in FOLDER even if it was read from another target, or from a "
+    "simulator by a controller's (or the other way round).",
+)
 @common_options()
 @pass_session
-def backup(session: Session, folder: str, keep: int | None) -> None:
+def backup(session: Session, folder: str, keep: int | None, replace: bool) -> None:
     """Save every JOB and PNT file of every channel to FOLDER, with a manifest (sha256).
 
     The backup is written to a temporary folder and swapped into place only when complete:
     an interrupted backup leaves the previous one intact. A non-empty FOLDER that is not a
-    robostar backup is refused.
+    robostar backup is refused, and so is one holding anything besides the previous backup's
+    own files (a backup replaces its folder whole). A previous backup of another target, or
+    of a simulator when this is a controller (or the other way round), is replaced only with
+    --replace.
 
     \b
     Example:
@@ -397,7 +438,7 @@ def backup(session: Session, folder: str, keep: int | None) -> None:
         session.plan([ListFiles(1, "*")], note="Then FA for every file listed, on every channel.")
     try:
         with _progress(session, "backup") as progress:
-            manifest = session.client.backup(folder, progress=progress, keep=keep)
+            manifest = session.client.backup(folder, progress=progress, keep=keep, replace=replace)
     except KeyboardInterrupt:
         session.interrupt_note = (
             f"the backup was not finished and nothing of it was kept; what {folder} held "
@@ -471,6 +512,7 @@ def restore(
         )
     if session.out.json and not (yes or preview):
         raise UsageError("--yes: a --json restore cannot ask; give --yes or --dry-run")
+    channels = _restore_channels(channels)
     seen: list[tuple[RestoreDiff, bool]] = []
 
     def confirm(diff: RestoreDiff) -> bool:
@@ -515,6 +557,22 @@ def restore(
         session.out.result(
             data, Text(f"Restored {diff.writes} file change(s) and verified them.", style="green")
         )
+
+
+def _restore_channels(own: tuple[int, ...]) -> tuple[int, ...]:
+    """The channels to restore: restore's own --channel, else the global one when it was given
+    (`robostar -c 2 restore DIR` means channel 2, as for every other command), else all."""
+    root = click.get_current_context().find_root()
+    if root.get_parameter_source("channel") is not click.core.ParameterSource.COMMANDLINE:
+        return own
+    given = int(root.params["channel"])
+    if own and given not in own:
+        raise UsageError(
+            f"--channel: -c {given} before the command and --channel "
+            f"{', '.join(map(str, own))} after it disagree; give the channels once, after "
+            "`restore` (nothing was written)"
+        )
+    return own or (given,)
 
 
 def _diff_json(diff: RestoreDiff) -> dict[str, object]:

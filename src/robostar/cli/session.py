@@ -159,10 +159,14 @@ class Session:
     def _mark_output(self) -> None:
         port = self.settings.port or (self._profile.port if self._profile else None)
         if port:
-            # Every JSON result and error says what it came from; a served simulator found
-            # by _identify turns "simulator" to true.
+            # Every JSON result and error says what it came from. Only sim:// is known from its
+            # URL; any other target is null ("not known") until _identify has asked it (AD),
+            # so an error before that never calls a served simulator a controller.
             known = self.out.extra.get("simulator") is True  # `demo` runs its own simulator
-            self.out.extra["simulator"] = known or is_simulator(port) or self._served_simulator
+            if known or is_simulator(port) or self._served_simulator:
+                self.out.extra["simulator"] = True
+            else:
+                self.out.extra.setdefault("simulator", None)
             self.out.extra.setdefault("url", port)
         if self._profile is not None:
             self.out.extra["robot"] = self._profile.name
@@ -247,12 +251,12 @@ class Session:
         try:
             info = client.execute(ReadInfo())
         except RobostarError:
-            return  # the command itself will meet and report the trouble
+            return  # the command itself will meet and report the trouble ("simulator": null)
         finally:
             self.frames_sent = counted
-        if is_simulator_identity(info):  # whatever name and version its configuration gives
-            self._served_simulator = True
-            self.out.extra["simulator"] = True
+        # Whatever name and version its configuration gives, a simulator's AD says so.
+        self._served_simulator = is_simulator_identity(info)
+        self.out.extra["simulator"] = self._served_simulator
 
     def read_alarms_left(self) -> None:
         """Read the controller's current alarms (AB) after a refusal into ``alarms_left``;
@@ -281,8 +285,8 @@ class Session:
         self._client = parent.client
         self._shared = True
         self._served_simulator = parent.simulator and not is_simulator(parent.port)
-        if parent.simulator:
-            self.out.extra["simulator"] = True
+        # What the shell knows of its target (true, false once asked, or null).
+        self.out.extra["simulator"] = parent.out.extra.get("simulator")
         parent._child = self
 
     def stop_started_motion(self) -> None:

@@ -67,11 +67,34 @@ _NOT_IN_SHELL = {
 """Commands the shell refuses (and does not complete), with the reason."""
 
 
+def _serial_doctor(parent: Session, words: list[str]) -> str | None:
+    """`doctor` on a serial line probes the port's baud rates with a connection of its own,
+    which the shell's open connection keeps busy: it would blame "another program", the shell
+    itself. Say so instead (on any other line doctor runs on the shell's connection)."""
+    if words[0] != "doctor" or any(w in ("--help", "-h") for w in words):
+        return None
+    from robostar.transport.url import Kind, parse_url
+
+    try:
+        kind = parse_url(parent.port).kind
+    except (RobostarError, ValueError):
+        return None
+    if kind not in (Kind.SERIAL, Kind.PYSERIAL_URL):
+        return None
+    return (
+        f"`doctor` probes {parent.port} with a connection of its own, and this shell holds the "
+        "port open: leave the shell (exit) and run `robostar doctor` there. The shell's "
+        "connection works: `status` and `info` check it here."
+    )
+
+
 def run_line(parent: Session, words: list[str]) -> int:
     """Run one command line on the shell's connection; its exit code."""
     from robostar.cli.app import cli
 
     refusal = _NOT_IN_SHELL.get(words[0]) if words else None
+    if refusal is None and words:
+        refusal = _serial_doctor(parent, words)
     if refusal is not None:
         click.echo(refusal, err=True)
         return EXIT_BAD_ARGUMENT
@@ -280,6 +303,7 @@ def shell(session: Session) -> None:
             words = split_line(line)
         except click.UsageError as error:
             error.show()
+            worst = max(worst, EXIT_BAD_ARGUMENT)  # a line not run is a failure of the script
             continue
         if not words:
             continue
@@ -288,7 +312,7 @@ def shell(session: Session) -> None:
         if words[0] == "help":
             words = ["--help"]
         code = run_line(session, words)
-        worst = code if code and not worst else worst
+        worst = max(worst, code)  # the worst is the highest: 2 < 3 refused < 4 line < 130
         state.forget()
     if not interactive and worst:
         raise click.exceptions.Exit(worst)

@@ -349,11 +349,16 @@ class AsyncOperations(AsyncRunner):
         *,
         progress: Progress | None = None,
         keep: int | None = None,
+        replace: bool = False,
     ) -> Manifest:
         """Save every JOB and PNT file of every channel to ``folder``, with manifest.json
-        (swapped into place only when complete; ``keep=N``: timestamped generations)."""
+        (swapped into place only when complete; ``keep=N``: timestamped generations;
+        ``replace``: even a backup of another target, see
+        :func:`robostar.client.backup.backup_plan`)."""
         return await self._run(
-            Operations.backup(cast(Operations, self), folder, progress=progress, keep=keep)
+            Operations.backup(
+                cast(Operations, self), folder, progress=progress, keep=keep, replace=replace
+            )
         )
 
     async def restore(

@@ -27,7 +27,8 @@ import shutil
 import tempfile
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import asdict, dataclass, field
+from dataclasses import replace as with_changes  # `replace` is backup_plan's option
 from datetime import UTC, datetime
 from pathlib import Path
 
@@ -40,7 +41,15 @@ from robostar.commands.identity import is_simulator_identity
 from robostar.commands.status import ReadInfo
 from robostar.errors import FieldError, RobostarError, UploadIncompleteError, UsageError
 from robostar.protocol.fields import FileName
-from robostar.types import ChannelInfo, ControllerInfo, CoordSystem, JobFile, PointFile, RobotType
+from robostar.types import (
+    ChannelInfo,
+    ControllerInfo,
+    CoordSystem,
+    FileRecord,
+    JobFile,
+    PointFile,
+    RobotType,
+)
 
 __all__ = [
     "MANIFEST",
@@ -219,17 +228,39 @@ def _work_pattern(target_name: str) -> re.Pattern[str]:
     return re.compile(rf"\.{re.escape(target_name)}\.[a-z0-9_]{{8}}\.(?:part|old)")
 
 
-def _check_target(root: Path, keep: int | None) -> None:
-    """Refuse, before anything is sent, a target that a backup must not replace."""
+def _foreign(root: Path, manifest: Manifest) -> list[str]:
+    """What ``root`` holds besides the backup ``manifest`` describes (its manifest, its files
+    and their ``ch<N>`` folders), as paths relative to ``root``: a backup replaces its folder
+    whole, so anything else would be deleted with the previous backup."""
+    own = {MANIFEST, *(f.path for f in manifest.files)}
+    folders = {str(Path(path).parent) for path in own} - {"."}
+    found = []
+    try:
+        for item in sorted(root.rglob("*")):
+            relative = item.relative_to(root).as_posix()
+            if item.is_symlink() or relative not in (folders if item.is_dir() else own):
+                found.append(relative)
+    except OSError as exc:
+        raise UsageError(f"folder: cannot read {str(root)!r}: {exc}") from exc
+    return found
+
+
+def _previous(root: Path, keep: int | None) -> Manifest | None:
+    """Refuse, before anything is sent, a target that a backup must not replace; the manifest
+    of the previous backup that it will replace, if there is one."""
     if root.exists() and not root.is_dir():
         raise UsageError(f"folder: {str(root)!r} exists and is not a folder")
     if keep is None:
-        if root.is_dir() and any(root.iterdir()) and not is_backup(root):
+        if not root.is_dir() or not any(root.iterdir()):
+            return None
+        if not is_backup(root):
             raise UsageError(
                 f"folder: {str(root)!r} is not empty and is not a robostar backup; "
                 "give an empty or new folder (nothing was replaced)"
             )
-        return
+        previous = Manifest.from_json((root / MANIFEST).read_text(encoding="utf-8"))
+        _refuse_foreign(root, previous)
+        return previous
     if isinstance(keep, bool) or not isinstance(keep, int) or keep < 1:
         raise UsageError(f"keep: must be a whole number 1 or more, not {keep!r}")
     if root.is_dir():
@@ -243,6 +274,59 @@ def _check_target(root: Path, keep: int | None) -> None:
                 f"folder: {str(root)!r} holds {strays[0]!r}, which is not a backup generation; "
                 "--keep needs a folder of its own"
             )
+    return None
+
+
+def _refuse_foreign(root: Path, previous: Manifest) -> None:
+    """Refuse to replace a backup folder that holds files of someone else's (notes, photos):
+    they would go with the previous backup, and no option deletes them."""
+    foreign = _foreign(root, previous)
+    if foreign:
+        more = f" and {len(foreign) - 1} more" if len(foreign) > 1 else ""
+        raise UsageError(
+            f"folder: {str(root)!r} holds {foreign[0]!r}{more}, which is not part of the backup "
+            "there; a backup replaces its folder whole, so move it out first or give another "
+            "folder (nothing was replaced)"
+        )
+
+
+def _same_target(before: str | None, now: str | None) -> bool:
+    """Is ``now`` the target ``before`` was read from (True when either is not known)? Every
+    ``sim://`` is the built-in simulator, started afresh each time, whatever its options."""
+    if before is None or now is None:
+        return True
+    if before.strip().lower().startswith("sim:") and now.strip().lower().startswith("sim:"):
+        return True
+    return before == now
+
+
+def _refuse_other_source(
+    root: Path, previous: Manifest, target: str | None, simulator: bool | None, replace: bool
+) -> None:
+    """Refuse, unless ``replace``, to replace a backup read from another target, or from a
+    simulator by a real controller's (or the other way round): one folder is one robot's."""
+    if replace:
+        return
+    # A manifest written before "simulator" was recorded: its AD identity still says.
+    was_simulator = (
+        previous.simulator
+        if previous.simulator is not None
+        else is_simulator_identity(previous.controller)
+    )
+
+    def what(url: str | None, sim: bool | None) -> str:
+        kind = {True: "a simulator", False: "a controller", None: "unknown"}[sim]
+        return f"{url} ({kind})" if url else kind
+
+    differs = simulator is not None and was_simulator is not simulator
+    differs |= not _same_target(previous.target, target)
+    if differs:
+        raise UsageError(
+            f"folder: {str(root)!r} holds a backup of {what(previous.target, was_simulator)}, "
+            f"not of {what(target, simulator)}; give --replace (replace=True in Python) to "
+            "replace it, or another folder (nothing was replaced; only the controller's "
+            "identity, AD, was read)"
+        )
 
 
 def _is_generation(path: Path) -> bool:
@@ -318,18 +402,22 @@ def backup_plan(
     keep: int | None = None,
     *,
     target: str | None = None,
+    replace: bool = False,
 ) -> Plan[Manifest]:
     """Download every file of every defined channel into ``folder``; ``progress`` per file.
 
     Without ``keep`` the backup is ``folder`` itself (a previous backup there is replaced only
-    once the new one is complete). With ``keep=N``, ``folder`` holds timestamped generations
+    once the new one is complete). A folder holding anything besides a previous backup's own
+    files is refused (nothing of anyone else's is ever deleted), and so is a previous backup
+    of another ``target``, or of a simulator when this is a controller (or the other way
+    round), unless ``replace``. With ``keep=N``, ``folder`` holds timestamped generations
     ``backup-<UTC time>``: the new one is always kept, with the N-1 newest others (by the time
     in their manifests). ``target`` (the client's URL) is recorded in the manifest. A file that
     cannot be written here raises :class:`BackupWriteError` (the previous backup is intact).
     The returned manifest's ``folder`` is where the new backup is.
     """
     root = _folder(folder)
-    _check_target(root, keep)
+    previous = _previous(root, keep)
     started = time.time()
     final = root / _stamp() if keep is not None else root
     try:
@@ -345,7 +433,12 @@ def backup_plan(
     else:
         kept = "there was no backup there to replace, and nothing half-written is left"
     try:
-        manifest = yield from _download_all(work, progress, target, final, kept)
+        manifest = yield from _download_all(
+            work, progress, target, final, kept, previous=previous, replace=replace
+        )
+        if previous is not None:
+            # Checked again at the moment of truth: a file someone put there since is kept.
+            _refuse_foreign(final, previous)
         try:
             _swap_into_place(work, final)
         except OSError as exc:
@@ -358,13 +451,23 @@ def backup_plan(
         _remove_stale_work(root, _GENERATION_WORK, started)
     else:
         _remove_stale_work(final.parent, _work_pattern(final.name), started)
-    return replace(manifest, folder=str(final))
+    return with_changes(manifest, folder=str(final))
 
 
 def _download_all(
-    work: Path, progress: Progress | None, target: str | None, final: Path, kept: str
+    work: Path,
+    progress: Progress | None,
+    target: str | None,
+    final: Path,
+    kept: str,
+    *,
+    previous: Manifest | None = None,
+    replace: bool = False,
 ) -> Plan[Manifest]:
     info = yield from call(ReadInfo())
+    if previous is not None:
+        # After AD (which says whether this is a simulator), before any file is read.
+        _refuse_other_source(final, previous, target, _is_simulator(target, info), replace)
     listing = []
     for channel in info.channels[: info.max_channels]:
         if channel.robot_type is RobotType.NOT_DEFINED:
@@ -649,6 +752,9 @@ def restore_plan(
         for e in manifest.files
         if e.channel in wanted and (only is None or fnmatch.fnmatch(e.name.upper(), only.upper()))
     ]
+    if only is not None and not entries and not delete_extra:
+        # A typo in the pattern would otherwise restore nothing and report success.
+        _refuse_unmatched(only, manifest, wanted)
     uploads = _read_backup(root, entries)
 
     target_info = yield from call(ReadInfo())
@@ -666,12 +772,26 @@ def restore_plan(
             + "); nothing was written"
         )
     diff = yield from _preflight(uploads, restored, only, delete_extra, identity)
+    if only is not None and not (entries or diff.extra):
+        # With delete_extra the pattern may choose files of the controller only; not even one.
+        _refuse_unmatched(only, manifest, wanted)
     agreed = confirm(diff) if confirm is not None else True
     if dry_run or not agreed:
         return manifest
     writes = [u for u in uploads if _relative(u.channel, u.file) in set(diff.new + diff.changed)]
     yield from _write_phase(root, writes, diff.delete, progress)
-    return replace(manifest, folder=str(root))
+    return with_changes(manifest, folder=str(root))
+
+
+def _refuse_unmatched(only: str, manifest: Manifest, wanted: set[int]) -> None:
+    """Refuse an ``only`` pattern that matches no file of the backup's chosen channels."""
+    held = [e.path for e in manifest.files if e.channel in wanted]
+    shown = ", ".join(held[:6]) + (f" and {len(held) - 6} more" if len(held) > 6 else "")
+    where = "" if wanted == {1, 2, 3} else f" on channel {', '.join(map(str, sorted(wanted)))}"
+    raise UsageError(
+        f"only: {only!r} matches no file of the backup{where} (it holds {shown or 'none'}); "
+        "nothing was written"
+    )
 
 
 def _write_phase(
@@ -758,20 +878,41 @@ def _preflight(
     extra: list[str] = []
     channels = sorted({u.channel for u in uploads} | (wanted if delete_extra else set()))
     channels = [c for c in channels if c in wanted]
-    present: dict[int, dict[str, str]] = {}
+    present: dict[int, dict[str, FileRecord]] = {}
     for channel in channels:
         records = yield from call(ListFiles(channel, "*"))
-        present[channel] = {FileName.parse(r.name).key: r.name for r in records}
+        present[channel] = {FileName.parse(r.name).key: r for r in records}
     ours = {(u.channel, u.file.key) for u in uploads}
+    renumbered: list[str] = []
     for upload in uploads:
         relative = _relative(upload.channel, upload.file)
-        if upload.file.key not in present[upload.channel]:
+        record = present[upload.channel].get(upload.file.key)
+        if record is None:
             new.append(relative)
             continue
         content = yield from call(DownloadFile(upload.channel, upload.file, CoordSystem.ANGLE))
-        (unchanged if _same(upload, content) else changed).append(relative)
+        if _same(upload, content):
+            unchanged.append(relative)
+            continue
+        changed.append(relative)
+        if upload.file.is_job and record.job_number != upload.job_number:
+            # The controller refuses FB of a JOB file it holds under another number (with an
+            # alarm): found here, nothing is written, rather than half-way through the writes.
+            renumbered.append(
+                f"{relative} is job number {record.job_number} on the controller, "
+                f"{upload.job_number} in the backup"
+            )
+    if renumbered:
+        raise UsageError(
+            "folder: the controller refuses to overwrite a JOB file under another job number: "
+            + "; ".join(renumbered)
+            + ". Delete it on the controller first (`robostar files rm NAME`, -c N for channel "
+            "N) so that the restore writes it anew, or leave it out with --only; nothing was "
+            "written"
+        )
     for channel in channels:
-        for key, name in present[channel].items():
+        for key, record in present[channel].items():
+            name = record.name
             if (channel, key) in ours:
                 continue
             if only is not None and not fnmatch.fnmatch(key, only.upper()):

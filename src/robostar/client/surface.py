@@ -449,11 +449,14 @@ class Operations(PlanHelpers):
         *,
         progress: Progress | None = None,
         keep: int | None = None,
+        replace: bool = False,
     ) -> Plan[Manifest]:
         """Save every JOB and PNT file of every channel to ``folder``, with manifest.json
-        (swapped into place only when complete; ``keep=N``: timestamped generations)."""
+        (swapped into place only when complete; ``keep=N``: timestamped generations;
+        ``replace``: even a backup of another target, see
+        :func:`robostar.client.backup.backup_plan`)."""
         target = getattr(self, "url", None)  # the client's URL, recorded in the manifest
-        return (yield from backup_plan(folder, progress, keep, target=target))
+        return (yield from backup_plan(folder, progress, keep, target=target, replace=replace))
 
     @operation
     def restore(
