@@ -20,6 +20,7 @@ from robostar.serve.config import (
     LineConfig,
     ServeConfig,
     config_from_mapping,
+    default_audit_path,
     load_config,
     parse_line_arg,
 )
@@ -59,8 +60,12 @@ def build_config(
     allow_remote: bool,
     token: str | None,
     audit: str | None,
+    no_audit: bool = False,
 ) -> ServeConfig:
-    """The file's configuration (if any) with the command line's lines and faces on top."""
+    """The file's configuration (if any) with the command line's lines and faces on top.
+
+    The audit log is on unless turned off (``--no-audit`` or ``audit = false``): without a
+    path from ``--audit`` or ``audit_path`` it goes to :func:`default_audit_path`."""
     base = load_config(config_file) if config_file else config_from_mapping({})
     all_lines: dict[str, LineConfig] = {lc.name: lc for lc in base.lines}
     for text in lines:
@@ -82,11 +87,16 @@ def build_config(
             options["token"] = token
     if not all_lines:
         raise ConfigError("lines: none given (--line NAME=URL or [lines.NAME] in --config)")
+    if no_audit and audit:
+        raise UsageError("--audit FILE and --no-audit: choose one")
+    keep = base.audit and not no_audit
+    path = (audit or base.audit_path or str(default_audit_path())) if keep else None
     return ServeConfig(
         lines=tuple(all_lines.values()),
         faces=sections,
-        audit_path=audit or base.audit_path,
+        audit_path=path,
         lease_ttl=base.lease_ttl,
+        audit=keep,
     )
 
 
@@ -108,6 +118,8 @@ def _describe(config: ServeConfig) -> list[str]:
         out.append(f"face {name}: {where}")
     if config.audit_path:
         out.append(f"audit log: {config.audit_path}")
+    elif not config.audit:
+        out.append("audit log: OFF (turned off): state changes are not recorded")
     return out
 
 
@@ -159,7 +171,12 @@ async def _run(config: ServeConfig) -> None:
     help="Also an unsigned, read-only OPC UA endpoint for local tools (loopback only).",
 )
 @click.option("--web", metavar="HOST:PORT", help="Serve the web dashboard.")
-@click.option("--audit", metavar="FILE", help="Append every state change to FILE (JSONL).")
+@click.option(
+    "--audit",
+    metavar="FILE",
+    help="Append every state change to FILE (JSONL; default: the user's state folder).",
+)
+@click.option("--no-audit", is_flag=True, help="Keep no audit log (said at start).")
 @click.option("--allow-remote", is_flag=True, help="Allow binding beyond loopback (needs --token).")
 @click.option(
     "--token",
@@ -185,6 +202,7 @@ def serve(
     opcua_allow_anonymous_read: bool,
     web: str | None,
     audit: str | None,
+    no_audit: bool,
     allow_remote: bool,
     token: str | None,
     log_format: str,
@@ -217,7 +235,7 @@ def serve(
     if allow_remote and not token:
         raise UsageError("--allow-remote needs --token (or ROBOSTAR_SERVE_TOKEN)")
     faces = {"api": api, "metrics": metrics, "mqtt": mqtt, "opcua": opcua, "web": web}
-    config = build_config(config_file, lines, n1, faces, allow_remote, token, audit)
+    config = build_config(config_file, lines, n1, faces, allow_remote, token, audit, no_audit)
     if opcua_allow_anonymous_read:
         if "opcua" not in config.faces:
             raise UsageError("--opcua-allow-anonymous-read needs --opcua (or [opcua])")
@@ -234,6 +252,9 @@ def serve(
         click.echo(text, err=True)
     if os.name != "posix":
         raise UsageError("robostar serve runs on POSIX systems (signal handling)")
+    default = default_audit_path()
+    if config.audit_path == str(default):
+        default.parent.mkdir(parents=True, exist_ok=True)  # a path given must exist already
     asyncio.run(_run(config))
 
 

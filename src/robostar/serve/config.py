@@ -19,6 +19,7 @@ __all__ = [
     "LineConfig",
     "ServeConfig",
     "config_from_mapping",
+    "default_audit_path",
     "load_config",
     "parse_line_arg",
 ]
@@ -89,6 +90,10 @@ class ServeConfig:
     faces: dict[str, dict[str, Any]] = field(default_factory=dict)
     audit_path: str | None = None
     lease_ttl: float = 30.0
+    audit: bool = True
+    """False only when the file says ``audit = false``: `robostar serve` then keeps no audit
+    log (it says so at start). With True and no ``audit_path``, the command picks the default
+    file (:func:`default_audit_path`); a LineServer made in code audits only to a path given."""
 
     def __post_init__(self) -> None:
         seen: set[str] = set()
@@ -102,6 +107,17 @@ class ServeConfig:
                 raise ConfigError(f"{name}: unknown section (faces: {known})")
         if not _seconds(self.lease_ttl):
             raise ConfigError(f"lease_ttl: {self.lease_ttl!r} is not a positive number of seconds")
+        if not self.audit and self.audit_path:
+            raise ConfigError("audit = false and audit_path: choose one")
+
+
+def default_audit_path() -> Path:
+    """Where `robostar serve` keeps its audit log when no path is given: the user's state
+    folder (``~/.local/state/robostar/audit.jsonl`` on Linux). On by default: everything that
+    moves a robot or writes to it is recorded unless the audit is turned off explicitly."""
+    import platformdirs  # only `robostar serve` needs it
+
+    return Path(platformdirs.user_state_dir("robostar")) / "audit.jsonl"
 
 
 def _seconds(value: object, *, zero: bool = False) -> bool:
@@ -172,6 +188,7 @@ def config_from_mapping(data: Mapping[str, Any]) -> ServeConfig:
     lines = tuple(_line(str(name), table) for name, table in lines_table.items())
     faces: dict[str, dict[str, Any]] = {}
     audit_path: str | None = None
+    audit = True
     lease_ttl = 30.0
     for key, value in data.items():
         if key == "lines":
@@ -180,6 +197,10 @@ def config_from_mapping(data: Mapping[str, Any]) -> ServeConfig:
             if not isinstance(value, str):
                 raise ConfigError(f"audit_path: {value!r} is not a path")
             audit_path = value
+        elif key == "audit":
+            if not isinstance(value, bool):
+                raise ConfigError(f"audit: {value!r} is not true or false")
+            audit = value
         elif key == "lease_ttl":
             if not isinstance(value, int | float) or isinstance(value, bool):
                 raise ConfigError(f"lease_ttl: {value!r} is not a number of seconds")
@@ -190,7 +211,9 @@ def config_from_mapping(data: Mapping[str, Any]) -> ServeConfig:
             faces[key] = dict(value)
         else:
             raise ConfigError(f"{key}: unknown key")
-    return ServeConfig(lines=lines, faces=faces, audit_path=audit_path, lease_ttl=lease_ttl)
+    return ServeConfig(
+        lines=lines, faces=faces, audit_path=audit_path, lease_ttl=lease_ttl, audit=audit
+    )
 
 
 def load_config(path: str | Path) -> ServeConfig:
