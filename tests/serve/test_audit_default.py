@@ -9,8 +9,8 @@ from pathlib import Path
 import pytest
 
 from robostar.cli.serve import _describe, build_config
-from robostar.serve.config import ConfigError, config_from_mapping, default_audit_path
 from robostar.errors import UsageError
+from robostar.serve.config import ConfigError, config_from_mapping, default_audit_path
 
 NO_FACES: dict[str, str | None] = {}
 
