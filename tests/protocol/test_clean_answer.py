@@ -224,8 +224,16 @@ SETUPS: dict[str, Callable[[], HostLink]] = {
 }
 
 
+_MEMO = frozenset(("_clean_read", "_clean_packet"))
+"""receive_clean_answer's memo of lone_frame (a pure function of the read): not link state."""
+
+
 def _snapshot(link: HostLink) -> dict[str, Any]:
-    state = {key: copy.copy(value) for key, value in vars(link).items() if key != "decoder"}
+    state = {
+        key: copy.copy(value)
+        for key, value in vars(link).items()
+        if key != "decoder" and key not in _MEMO
+    }
     state["_out"] = bytes(link._out)
     state["decoder"] = _decoder_state(link.decoder)
     return state
@@ -308,3 +316,35 @@ def test_a_request_sent_again_goes_out_as_encode_packet_frames_it() -> None:
             with pytest.raises(PacketTooLongError):
                 link.send_request(bad, Shape.SINGLE, now)
             assert link.data_to_send() == b""
+
+
+def test_a_poll_answered_alike_or_not_gives_each_read_its_own_packet() -> None:
+    # receive_clean_answer keeps the last whole frame it found and its packet: the same read
+    # again gives the same packet, any other read is framed anew (and a broken one refused).
+    link = HostLink()
+    other = b"0\xb5\x80\x81"
+    broken = bytearray(encode_packet(other))
+    broken[-1] ^= 0x01  # a bad LRC
+    reads: list[tuple[bytes, bytes | None]] = [
+        (encode_packet(OK_ANSWER), OK_ANSWER),
+        (encode_packet(OK_ANSWER), OK_ANSWER),
+        (encode_packet(other), other),
+        (encode_packet(OK_ANSWER), OK_ANSWER),
+        (bytes(broken), None),
+        (encode_packet(other), other),
+    ]
+    now = 0.0
+    for read, expected in reads:
+        now += 0.01
+        link.send_request(AA, Shape.SINGLE, now)
+        link.data_to_send()
+        packet = link.receive_clean_answer(read, now)
+        assert packet == expected
+        if packet is None:
+            link.abort(now)
+            now += 10.0
+            link.handle_timeout(now)
+            link.data_to_send()
+            continue
+        assert link.data_to_send() == bytes((ACK,))
+        assert link.state is State.IDLE

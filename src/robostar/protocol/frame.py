@@ -9,6 +9,7 @@ resynchronises on the next STX (the lesson of pymodbus's framer bugs).
 from __future__ import annotations
 
 import enum
+import re
 from dataclasses import dataclass
 
 from robostar.errors import FrameError, PacketTooLongError
@@ -45,6 +46,9 @@ _MAX_DATA = MAX_PACKET - 3
 _LRC_FOLD_FROM = 48
 """From this many bytes on, folding the packet as one integer beats a loop over its bytes."""
 _CONTROL_BYTES = frozenset((ACK, NAK, RST))
+_LONE_FRAME = re.compile(rb"\x02([^\x02\x03]{0,%d})\x03." % _MAX_DATA, re.DOTALL).fullmatch
+"""STX, up to 247 data bytes holding neither STX nor ETX, ETX, any LRC byte: one whole frame
+(one C call; the same test as two ``find`` calls and the bounds, in about half the time)."""
 
 
 def lrc(data: bytes | bytearray) -> int:
@@ -90,15 +94,10 @@ def lone_frame(data: bytes) -> bytes | None:
     :meth:`FrameDecoder.feed` between frames gives just ``[Packet(data)]`` and stays between
     frames. Anything else (None) is for the decoder.
     """
-    n = len(data)
-    if (
-        3 <= n <= MAX_PACKET
-        and data[0] == STX
-        and data.find(b"\x03", 1) == n - 2
-        and data.find(b"\x02", 1, n - 2) < 0
-    ):
-        packet = data[1 : n - 2]
-        got = data[n - 1]
+    whole = _LONE_FRAME(data)
+    if whole is not None:
+        packet = whole.group(1)
+        got = data[-1]
         want = lrc(packet)
         if got == want or (want == 0 and got == ETX):
             return packet
