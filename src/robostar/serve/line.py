@@ -12,6 +12,7 @@ import asyncio
 import contextlib
 import itertools
 import logging
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -28,6 +29,7 @@ from robostar.commands.status import ReadAlarms, ReadInfo, ReadPosition, ReadSta
 from robostar.errors import (
     ControllerError,
     LineError,
+    NotSupportedError,
     OutcomeUnknownError,
     PortError,
     ReplyTimeoutError,
@@ -173,6 +175,8 @@ class Line:
         self._timeouts = 0
         self._jogs: dict[int, Who] = {}
         self._unsupported: set[str] = set()
+        """Poll reads the controller answered 0x33 (not supported): not asked again until the
+        line reopens (by :func:`model_key`, else the command's code)."""
         self._poll_now = asyncio.Event()
         self._reads_waiting = 0
         self._written = False
@@ -450,6 +454,9 @@ class Line:
             self.health.reconnects += 1
         self._client = client
         self.info = info
+        # the line may lead to another controller (or the same one reconfigured) now: what it
+        # did not support before is asked again
+        self._unsupported.clear()
         self.model.set("info", info)
         self.model.set("online", True)
         self._timeouts = 0
@@ -585,12 +592,32 @@ class Line:
             return
         try:
             result = await self._poll_read(command)
-        except ControllerError as exc:
-            # a channel without a robot, an option the controller lacks: stop asking
+        except NotSupportedError as exc:
+            # 0x33: a channel without a robot, an option the controller lacks: stop asking. The
+            # value it had (if any) is not vouched for any more.
             log.info("line %s: %s not polled any more (%s)", self.name, key, exc)
             self._unsupported.add(key)
+            self._mark_stale(command)
+            return
+        except ControllerError as exc:
+            # 0x31/0x32 ("cannot be done now"): a refusal of this moment, not of the value: ask
+            # again next cycle; meanwhile the old value must not say "good"
+            log.debug("line %s: poll of %s refused (%s)", self.name, key, exc)
+            self._mark_stale(command)
             return
         self._store(command, result)
+
+    def _mark_stale(self, command: Command[Any]) -> None:
+        """Mark STALE the good model values that ``command`` (a poll read) refreshes."""
+        if isinstance(command, ReadStatus):
+            keys = {f"ch{n}/status" for n in (1, 2, 3)}
+        else:
+            key = model_key(command)
+            keys = set() if key is None else {key}
+        if keys:
+            # the model marks by age, not by key: every other key is kept out of it
+            others = self.model.snapshot().keys() - keys
+            self.model.age_out(math.inf, keep=others)
 
     async def _poll_read(self, command: Command[R]) -> R:
         """A poll read: behind the consumers' reads, until the model would go stale waiting;
