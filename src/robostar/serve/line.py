@@ -112,6 +112,8 @@ class _Job:
     command: Command[Any] = field(compare=False)
     future: asyncio.Future[Any] = field(compare=False)
     who: Who | None = field(compare=False, default=None)
+    started: bool = field(compare=False, default=False)
+    """The worker took it: its request may be on the wire."""
 
 
 def model_key(command: Command[Any]) -> str | None:
@@ -251,8 +253,16 @@ class Line:
         priority = PRI_STOP if is_stop else PRI_WRITE
         if isinstance(command, JogContinue):
             priority = PRI_KEEPALIVE
+        job: _Job | None = None
         try:
-            result = await self._submit(command, priority, who)
+            self._check_open()
+            job = self._enqueue_job(command, priority, who)
+            result: R = await job.future
+        except asyncio.CancelledError:
+            # the requester went away (a face draining at stop, a cancelled task): that is no
+            # error of the robot's, and a write on the wire may well have been carried out
+            self.record(command, who, _cancelled_outcome(job))
+            raise
         except BaseException as exc:
             self.record(command, who, f"error: {type(exc).__name__}: {exc}")
             raise
@@ -306,12 +316,17 @@ class Line:
     def _enqueue(self, command: Command[R], priority: int, who: Who | None) -> asyncio.Future[R]:
         """Queue ``command``; its future gets the result. A job whose future is done (e.g.
         cancelled) before the worker reaches it is skipped."""
+        return cast("asyncio.Future[R]", self._enqueue_job(command, priority, who).future)
+
+    def _enqueue_job(self, command: Command[Any], priority: int, who: Who | None) -> _Job:
+        """:meth:`_enqueue`, giving the job (whether it has started is known by it)."""
         command.encode()  # bad input fails here, before it waits in the queue or reaches the wire
-        future: asyncio.Future[R] = asyncio.get_running_loop().create_future()
-        self._queue.put_nowait(_Job(priority, next(self._seq), command, future, who))
+        future: asyncio.Future[Any] = asyncio.get_running_loop().create_future()
+        job = _Job(priority, next(self._seq), command, future, who)
+        self._queue.put_nowait(job)
         if priority == PRI_STOP:
             self._preempt(command)
-        return future
+        return job
 
     def _preempt(self, stop: Command[Any]) -> None:
         job, task = self._current, self._current_task
@@ -348,6 +363,7 @@ class Line:
         client = self._client
         assert client is not None
         self._current = job
+        job.started = True
         self._aborted_by = None
         started = time.perf_counter()
         done: list[tuple[int, int | None]] = [(0, None)]
@@ -647,6 +663,16 @@ class Line:
                 await asyncio.sleep(0.01)
 
         await asyncio.wait_for(cycle(), timeout)
+
+
+def _cancelled_outcome(job: _Job | None) -> str:
+    """The audit outcome of a state change whose requester was cancelled while it waited."""
+    if job is None or not job.started:
+        return "cancelled, not sent"  # the worker skips a job whose future is done
+    future = job.future
+    if future.done() and not future.cancelled() and future.exception() is None:
+        return "ok (the requester went away before its answer)"
+    return "outcome unknown: the requester went away while it was on the wire"
 
 
 def _ignore_result(task: asyncio.Task[Any]) -> None:
