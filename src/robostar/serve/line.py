@@ -38,11 +38,20 @@ from robostar.errors import (
 )
 from robostar.serve.audit import AuditLog
 from robostar.serve.config import LineConfig
-from robostar.serve.lease import Lease, Who
+from robostar.serve.lease import Lease, LeaseHeldError, LeaseInfo, Who
 from robostar.serve.model import ControllerModel, Quality
 from robostar.types import ControllerInfo, PositionKind
 
-__all__ = ["STOPS", "AbortedByStopError", "Line", "LineDownError", "LineHealth", "model_key"]
+__all__ = [
+    "STOPS",
+    "AbortedByStopError",
+    "LeaseLostError",
+    "Line",
+    "LineDownError",
+    "LineHealth",
+    "WithdrawnError",
+    "model_key",
+]
 
 R = TypeVar("R")
 log = logging.getLogger("robostar.serve")
@@ -82,6 +91,29 @@ def stale_after(config: LineConfig) -> float:
 
 class AbortedByStopError(LineError):
     """A transfer in progress was cancelled so that a stop could go out at once."""
+
+
+class LeaseLostError(LeaseHeldError):
+    """A state change waited in the queue while its requester lost the lease (expiry, release,
+    a disconnect, a takeover); it was refused just before sending: nothing was sent.
+
+    A :class:`LeaseHeldError`, so faces answer it as they answer any lease conflict."""
+
+    def __init__(self, line: str, command: str, who: Who, holder: LeaseInfo | None) -> None:
+        now = f"control is held by {holder.who}" if holder is not None else "the lease is free"
+        # not LeaseHeldError's own text ("control is held by ..."): the point is the loss
+        RobostarError.__init__(
+            self,
+            f"line {line}: {command} for {who} refused: the lease was lost before it was sent"
+            f" ({now}); nothing was sent",
+        )
+        self.line = line
+        self.holder = holder if holder is not None else LeaseInfo(Who("nobody", "-"), 0.0, 0.0)
+
+
+class WithdrawnError(LineError):
+    """A request was taken out of the queue before it was sent, because its requester went away
+    (an N1 connection closed, a host gave the exchange up); nothing was sent."""
 
 
 @dataclass
@@ -263,6 +295,12 @@ class Line:
             # error of the robot's, and a write on the wire may well have been carried out
             self.record(command, who, _cancelled_outcome(job))
             raise
+        except LeaseLostError as exc:
+            self.record(command, who, f"refused: {exc}")
+            raise
+        except WithdrawnError as exc:
+            self.record(command, who, f"cancelled, not sent: {exc}")
+            raise
         except BaseException as exc:
             self.record(command, who, f"error: {type(exc).__name__}: {exc}")
             raise
@@ -275,8 +313,11 @@ class Line:
             self._jogs.clear()
         return result
 
-    async def read(self, command: Command[R], *, max_age: float | None = None) -> R:
-        """Answer a read from the model when fresh enough, else from the line (and store it)."""
+    async def read(
+        self, command: Command[R], *, max_age: float | None = None, who: Who | None = None
+    ) -> R:
+        """Answer a read from the model when fresh enough, else from the line (and store it).
+        ``who`` (optional) lets :meth:`withdraw` take the read out of the queue."""
         if command.CHANGES_STATE:
             raise UsageError(f"{command.CODE} changes state: use execute(), with a lease holder")
         limit = self.config.max_age if max_age is None else max_age
@@ -292,7 +333,7 @@ class Line:
             )
         self._reads_waiting += 1
         try:
-            result = await self._submit(command, PRI_READ, None)
+            result = await self._submit(command, PRI_READ, who)
         finally:
             self._reads_waiting -= 1
         self._store(command, result)
@@ -334,6 +375,30 @@ class Line:
             self._aborted_by = stop
             task.cancel()
 
+    def withdraw(self, who: Who, why: str) -> int:
+        """Fail every request of ``who`` still in the queue (not yet sent) with
+        :class:`WithdrawnError` saying ``why``: its requester is gone, so no one would see the
+        outcome, and a state change must not run for someone no longer there. Stops stay (a
+        robot someone asked to stop is stopped all the same); a request already on the wire
+        runs to its end. Returns how many were withdrawn."""
+        kept: list[_Job] = []
+        withdrawn = 0
+        while not self._queue.empty():
+            job = self._queue.get_nowait()
+            if job.who != who or isinstance(job.command, STOPS):
+                kept.append(job)
+            elif not job.future.done():
+                job.future.set_exception(
+                    WithdrawnError(
+                        f"line {self.name}: {job.command.CODE} withdrawn before it was sent"
+                        f" ({why}); nothing was sent"
+                    )
+                )
+                withdrawn += 1
+        for job in kept:
+            self._queue.put_nowait(job)
+        return withdrawn
+
     def _fail_queued(self, error: BaseException) -> None:
         while not self._queue.empty():
             job = self._queue.get_nowait()
@@ -355,9 +420,23 @@ class Line:
                 attempt = 0
                 self._first_attempt.set()
             job = await self._queue.get()
-            if job.future.done():
+            if job.future.done() or self._lease_lost_before_sending(job):
                 continue
             await self._run(job)
+
+    def _lease_lost_before_sending(self, job: _Job) -> bool:
+        """Refuse (fail) ``job`` if it needs its requester's lease and the requester no longer
+        holds it: the lease was checked when it was queued, but it may have waited behind a
+        slow exchange while the requester lost the lease and another took it. Stops need none."""
+        command, who = job.command, job.who
+        if who is None or not command.CHANGES_STATE or isinstance(command, STOPS):
+            return False
+        if self.lease.held_by(who):
+            return False
+        job.future.set_exception(
+            LeaseLostError(self.name, command.CODE, who, self.lease.holder)
+        )  # execute() audits the refusal
+        return True
 
     async def _run(self, job: _Job) -> None:
         client = self._client

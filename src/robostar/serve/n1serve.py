@@ -5,6 +5,10 @@ fresh; state changes go through the line's queue and lease: a connection takes t
 is free and keeps it while active (it expires after the lease's idle time, and is released when
 the connection closes). A request refused because another holds the lease answers flag 0x32, and
 KD then says who holds it.
+
+A session's requests still waiting in the line's queue are withdrawn (nothing sent) when its
+connection closes: nobody would hear their outcome, and a write must not reach the robot for a
+host no longer there (its lease is released, and another may hold it by then).
 """
 
 from __future__ import annotations
@@ -52,13 +56,17 @@ class LineBackend(Backend):
         task.add_done_callback(self._tasks.discard)
 
     async def _serve(self, request: Request) -> None:
+        if not request.live:
+            # its connection closed before this task ran: session_closed found nothing of it
+            # to withdraw, so it must not be queued now
+            return
         command = request.command
         who = self.who(request.session)
         try:
             if command.CHANGES_STATE:
                 result = await self.line.execute(command, who=who, implicit_lease=True)
             else:
-                result = await self.line.read(command)
+                result = await self.line.read(command, who=who)
         except ControllerError as exc:
             self._refuse(request, exc.reason or str(exc), exc.flag or _FLAG_FAILED)
             return
@@ -94,7 +102,20 @@ class LineBackend(Backend):
             raise Refusal(str(LeaseHeldError(self.line.name, holder)), _FLAG_FAILED)
 
     def session_closed(self, session: Session) -> None:
+        self._withdraw(session, "its N1 connection closed")
         self.line.lease.release(self.who(session))
+
+    def _withdraw(self, session: Session, why: str) -> None:
+        """Take ``session``'s requests still waiting in the line's queue out of it."""
+        withdrawn = self.line.withdraw(self.who(session), why)
+        if withdrawn:
+            log.info(
+                "line %s: %d request(s) of %s withdrawn: %s",
+                self.line.name,
+                withdrawn,
+                session.name,
+                why,
+            )
 
     async def drain(self) -> None:
         for task in list(self._tasks):
