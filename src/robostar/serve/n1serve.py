@@ -17,8 +17,9 @@ import asyncio
 import logging
 import ssl
 from collections.abc import Mapping, Sequence
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
+from robostar.commands.base import Command
 from robostar.commands.files import UploadFile
 from robostar.commands.system import ReadLastError
 from robostar.errors import ControllerError, RobostarError
@@ -93,13 +94,30 @@ class LineBackend(Backend):
         if request.live:
             request.refuse(reason, flag)
 
-    def begin_upload(self, command: UploadFile) -> None:
-        # refuse before the lines are sent when another consumer holds the lease
+    def session(self, name: str, timeout: float) -> Session:
+        """A new N1 session on this backend (one per connection)."""
+        hooks = _SessionHooks(self)
+        session = Session(hooks, name=name, timeout=timeout)
+        hooks.session = session
+        return session
+
+    def begin_upload(self, command: UploadFile, session: Session | None = None) -> None:
+        """Refuse an FB before its lines are sent when another consumer, another N1 session
+        included, holds the lease (``session``: the one uploading)."""
         holder = self.line.lease.holder
-        if holder is not None and holder.who.face == "n1":
+        if holder is None:
+            return  # free: the upload takes it when it is carried out
+        if session is None:
+            # serving's own hook does not say which session (see _SessionHooks): let an N1
+            # holder through, and the lease is checked when the upload is carried out
+            if holder.who.face == "n1":
+                return
+        elif holder.who == self.who(session):
             return
-        if holder is not None:
-            raise Refusal(str(LeaseHeldError(self.line.name, holder)), _FLAG_FAILED)
+        error = LeaseHeldError(self.line.name, holder)
+        if session is not None:
+            self.line.record(command, self.who(session), f"refused: {error}")
+        raise Refusal(str(error), _FLAG_FAILED)
 
     def session_closed(self, session: Session) -> None:
         self._withdraw(session, "its N1 connection closed")
@@ -122,6 +140,31 @@ class LineBackend(Backend):
             task.cancel()
         if self._tasks:
             await asyncio.gather(*self._tasks, return_exceptions=True)
+
+
+class _SessionHooks(Backend):
+    """A :class:`LineBackend` as one session sees it. serving calls ``begin_upload`` without
+    saying which session uploads; this per-session face of the shared backend passes it on, so
+    that an FB from a session other than the lease holder is refused before its lines."""
+
+    def __init__(self, backend: LineBackend) -> None:
+        self.backend = backend
+        self.session: Session | None = None
+
+    def handle(self, request: Request) -> None:
+        self.backend.handle(request)
+
+    def begin_upload(self, command: UploadFile) -> None:
+        self.backend.begin_upload(command, self.session)
+
+    def note_error(self, session: Session, text: str) -> None:
+        self.backend.note_error(session, text)
+
+    def session_closed(self, session: Session) -> None:
+        self.backend.session_closed(session)
+
+    def dress_answer(self, command: Command[Any], packets: list[bytes]) -> list[bytes]:
+        return self.backend.dress_answer(command, packets)
 
 
 class N1Face:
@@ -158,7 +201,7 @@ class N1Face:
         timeout = self.server.lines[name].config.timeout
 
         def factory(conn: str) -> Session:
-            return Session(backend, name=conn, timeout=timeout)
+            return backend.session(conn, timeout)
 
         n1 = AsyncHost(factory, name=f"n1 {name}")
         self.addresses[name] = await n1.start(
