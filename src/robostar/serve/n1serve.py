@@ -4,7 +4,10 @@ Each connection is its own N1 session (robostar.serving). Reads are answered fro
 fresh; state changes go through the line's queue and lease: a connection takes the lease when it
 is free and keeps it while active (it expires after the lease's idle time, and is released when
 the connection closes). A request refused because another holds the lease answers flag 0x32, and
-KD then says who holds it.
+KD then says who holds it. A state change whose outcome the line cannot tell
+(OutcomeUnknownError: it may have been carried out) ends its exchange with RST, as a controller
+does when it cannot answer, never with a failure flag: a host that retries on failure would
+send a write that may have run a second time.
 
 A session's requests still waiting in the line's queue are withdrawn (nothing sent) when its
 connection closes: nobody would hear their outcome, and a write must not reach the robot for a
@@ -22,7 +25,7 @@ from typing import TYPE_CHECKING, Any
 from robostar.commands.base import Command
 from robostar.commands.files import UploadFile
 from robostar.commands.system import ReadLastError
-from robostar.errors import ControllerError, RobostarError
+from robostar.errors import ControllerError, OutcomeUnknownError, RobostarError
 from robostar.serve.lease import LeaseHeldError, Who
 from robostar.serve.line import Line
 from robostar.serving import AsyncHost, Backend, Refusal, Request, Session
@@ -74,6 +77,16 @@ class LineBackend(Backend):
         except LeaseHeldError as exc:
             self._refuse(request, str(exc), _FLAG_FAILED)
             return
+        except OutcomeUnknownError as exc:
+            # not 0x32: "failed" would tell the host that nothing happened. A controller that
+            # cannot say ends the exchange (RST); the host's link then reports the outcome as
+            # unknown (robostar's client: OutcomeUnknownError), and KD says why.
+            session = request.session
+            if isinstance(session, _LineSession):
+                session.abort_exchange(request, f"line server: {exc}")
+            else:  # a Session not made by session(): it cannot end the exchange itself
+                self._refuse(request, f"line server: {exc}", _FLAG_FAILED)
+            return
         except RobostarError as exc:
             self._refuse(request, f"line server: {exc}", _FLAG_FAILED)
             return
@@ -97,7 +110,7 @@ class LineBackend(Backend):
     def session(self, name: str, timeout: float) -> Session:
         """A new N1 session on this backend (one per connection)."""
         hooks = _SessionHooks(self)
-        session = Session(hooks, name=name, timeout=timeout)
+        session = _LineSession(hooks, name=name, timeout=timeout)
         hooks.session = session
         return session
 
@@ -140,6 +153,22 @@ class LineBackend(Backend):
             task.cancel()
         if self._tasks:
             await asyncio.gather(*self._tasks, return_exceptions=True)
+
+
+class _LineSession(Session):
+    """An N1 session of the line server: serving's Session, and a way for the backend to end
+    the exchange with RST (serving offers none: its backends answer or refuse)."""
+
+    def abort_exchange(self, request: Request, reason: str) -> None:
+        """End ``request``'s exchange with RST (if the host still waits for it); KD: ``reason``."""
+        if not request.live or self.closed:
+            return
+        # the link sends RST and reports the exchange failed; the session drops the request as
+        # it does any exchange the link gave up, then takes whatever input the link held
+        self._run(self.link.abort(asyncio.get_running_loop().time()))
+        self.error(reason)  # after the session's own "exchange dropped": KD says why
+        if self.on_ready is not None:
+            self.on_ready()  # the host writes the RST out now, not with its next input
 
 
 class _SessionHooks(Backend):
