@@ -1,6 +1,6 @@
 """An N1 session's requests still in the line's queue are withdrawn (nothing sent) when its
-connection closes: a write of a departed host never reaches the robot, least of all under someone
-else's lease."""
+connection closes or its host gives the exchange up: a write of a host that moved on or left never
+reaches the robot, least of all under someone else's lease."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ from contextlib import asynccontextmanager
 from pathlib import Path
 
 from robostar.commands.control import ReadSpeed, SetSpeed
-from robostar.protocol.frame import encode_packet
+from robostar.protocol.frame import RST, encode_packet
 from robostar.serve import LineConfig, LineServer, ServeConfig, Who
 from robostar.serve.line import Line
 from robostar.serve.n1serve import LineBackend
@@ -99,3 +99,54 @@ def test_a_request_whose_connection_closed_before_it_was_served_is_never_queued(
 
     asyncio.run(main())
     assert not any(isinstance(c, SetSpeed) for c in sim.sent)
+
+
+def test_a_write_whose_host_gave_the_exchange_up_is_withdrawn(tmp_path: Path) -> None:
+    sim = FaultySim()
+    path = tmp_path / "audit.jsonl"
+
+    async def main() -> None:
+        async with _server(sim, path) as (line, host, port):
+            busy = await _hold_the_line(line, sim)
+            _, writer = await asyncio.open_connection(host, port)
+            writer.write(encode_packet(SetSpeed(1, 556).encode()))
+            await writer.drain()
+            assert await wait_for(lambda: line.lease.holder is not None)  # queued
+            writer.write(bytes([RST]))  # the host gives up waiting; the connection stays
+            await writer.drain()
+            assert await wait_for(lambda: bool(_n1_outcomes(path, "SetSpeed")))
+            await busy
+            sim.write_delay = 0.0
+            await asyncio.sleep(0.2)  # the worker would have sent it by now
+            writer.close()
+
+    asyncio.run(main())
+    assert not any(isinstance(c, SetSpeed) for c in sim.sent)
+    (outcome,) = _n1_outcomes(path, "SetSpeed")
+    assert outcome.startswith("cancelled, not sent: ")
+    assert "gave the exchange up" in outcome
+
+
+def test_a_new_request_of_the_same_host_withdraws_the_one_it_superseded(tmp_path: Path) -> None:
+    sim = FaultySim()
+    path = tmp_path / "audit.jsonl"
+
+    async def main() -> None:
+        async with _server(sim, path) as (line, host, port):
+            busy = await _hold_the_line(line, sim)
+            _, writer = await asyncio.open_connection(host, port)
+            writer.write(encode_packet(SetSpeed(1, 557).encode()))
+            await writer.drain()
+            assert await wait_for(lambda: line.lease.holder is not None)
+            writer.write(encode_packet(SetSpeed(1, 58).encode()))  # it moved on
+            await writer.drain()
+            await busy
+            sim.write_delay = 0.0
+            assert await wait_for(lambda: len(_n1_outcomes(path, "SetSpeed")) == 2)
+            writer.close()
+
+    asyncio.run(main())
+    assert [c.speed for c in sim.sent if isinstance(c, SetSpeed)] == [58]
+    first, second = _n1_outcomes(path, "SetSpeed")
+    assert first.startswith("cancelled, not sent: ") and "gave the exchange up" in first
+    assert second == "ok"

@@ -10,8 +10,9 @@ does when it cannot answer, never with a failure flag: a host that retries on fa
 send a write that may have run a second time.
 
 A session's requests still waiting in the line's queue are withdrawn (nothing sent) when its
-connection closes: nobody would hear their outcome, and a write must not reach the robot for a
-host no longer there (its lease is released, and another may hold it by then).
+connection closes or its host gives the exchange up (an RST, a new request): nobody would hear
+their outcome, and a write must not reach the robot for a host that has moved on or gone (its
+lease is released on disconnect, and another may hold it by then).
 """
 
 from __future__ import annotations
@@ -19,13 +20,15 @@ from __future__ import annotations
 import asyncio
 import logging
 import ssl
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 from robostar.commands.base import Command
 from robostar.commands.files import UploadFile
 from robostar.commands.system import ReadLastError
 from robostar.errors import ControllerError, OutcomeUnknownError, RobostarError
+from robostar.protocol.frame import Control, ControlKind, FrameDecoder, FrameEvent, Packet
+from robostar.protocol.link import APP_TURN
 from robostar.serve.lease import LeaseHeldError, Who
 from robostar.serve.line import Line
 from robostar.serving import AsyncHost, Backend, Refusal, Request, Session
@@ -112,6 +115,9 @@ class LineBackend(Backend):
         hooks = _SessionHooks(self)
         session = _LineSession(hooks, name=name, timeout=timeout)
         hooks.session = session
+        session.on_abandoned = lambda: self._withdraw(
+            session, "the host gave the exchange up (an RST or a new request)"
+        )
         return session
 
     def begin_upload(self, command: UploadFile, session: Session | None = None) -> None:
@@ -156,8 +162,29 @@ class LineBackend(Backend):
 
 
 class _LineSession(Session):
-    """An N1 session of the line server: serving's Session, and a way for the backend to end
-    the exchange with RST (serving offers none: its backends answer or refuse)."""
+    """An N1 session of the line server: serving's Session, plus what serving does not offer a
+    backend: ending the exchange with RST, and hearing at once that the host gave up a request
+    the backend still has (the link holds such input until the answer, then drops the answer)."""
+
+    def __init__(self, backend: Backend, *, name: str, timeout: float) -> None:
+        super().__init__(backend, name=name, timeout=timeout)
+        self.on_abandoned: Callable[[], None] | None = None
+        """Called when the host moves on while its request is with the backend."""
+        self._frames = FrameDecoder()
+        """The host's frames as the link decodes them (the same bytes, in step), so that what
+        the link holds during the backend's turn can be seen as it arrives."""
+
+    def receive_data(self, data: bytes, now: float) -> None:
+        with_backend = self._with_backend()
+        super().receive_data(data, now)
+        frames = self._frames.feed(data)
+        if with_backend and self.on_abandoned is not None and any(map(_moves_on, frames)):
+            self.on_abandoned()
+
+    def _with_backend(self) -> bool:
+        """A request of this session waits for the backend's answer (the link's hold)."""
+        request = self.current
+        return request is not None and request.live and self.link.state in APP_TURN
 
     def abort_exchange(self, request: Request, reason: str) -> None:
         """End ``request``'s exchange with RST (if the host still waits for it); KD: ``reason``."""
@@ -166,9 +193,18 @@ class _LineSession(Session):
         # the link sends RST and reports the exchange failed; the session drops the request as
         # it does any exchange the link gave up, then takes whatever input the link held
         self._run(self.link.abort(asyncio.get_running_loop().time()))
+        self._frames.reset()  # as the link's decoder is, after its RST
         self.error(reason)  # after the session's own "exchange dropped": KD says why
         if self.on_ready is not None:
             self.on_ready()  # the host writes the RST out now, not with its next input
+
+
+def _moves_on(frame: FrameEvent) -> bool:
+    """The host gave up the exchange open on the link: an RST or any packet (the link's own
+    rule, ``Link._peer_moved_on``); ACK, NAK and damaged frames are noise."""
+    return isinstance(frame, Packet) or (
+        isinstance(frame, Control) and frame.kind is ControlKind.RST
+    )
 
 
 class _SessionHooks(Backend):
