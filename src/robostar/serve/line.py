@@ -108,7 +108,7 @@ class LeaseLostError(LeaseHeldError):
             f" ({now}); nothing was sent",
         )
         self.line = line
-        self.holder = holder if holder is not None else LeaseInfo(Who("nobody", "-"), 0.0, 0.0)
+        self.holder = holder  # None: the lease is free, as LeaseHeldError has it
 
 
 class WithdrawnError(LineError):
