@@ -12,6 +12,7 @@ import asyncio
 import contextlib
 import itertools
 import logging
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -28,6 +29,7 @@ from robostar.commands.status import ReadAlarms, ReadInfo, ReadPosition, ReadSta
 from robostar.errors import (
     ControllerError,
     LineError,
+    NotSupportedError,
     OutcomeUnknownError,
     PortError,
     ReplyTimeoutError,
@@ -36,11 +38,20 @@ from robostar.errors import (
 )
 from robostar.serve.audit import AuditLog
 from robostar.serve.config import LineConfig
-from robostar.serve.lease import Lease, Who
+from robostar.serve.lease import Lease, LeaseHeldError, LeaseInfo, Who
 from robostar.serve.model import ControllerModel, Quality
 from robostar.types import ControllerInfo, PositionKind
 
-__all__ = ["STOPS", "AbortedByStopError", "Line", "LineDownError", "LineHealth", "model_key"]
+__all__ = [
+    "STOPS",
+    "AbortedByStopError",
+    "LeaseLostError",
+    "Line",
+    "LineDownError",
+    "LineHealth",
+    "WithdrawnError",
+    "model_key",
+]
 
 R = TypeVar("R")
 log = logging.getLogger("robostar.serve")
@@ -82,6 +93,29 @@ class AbortedByStopError(LineError):
     """A transfer in progress was cancelled so that a stop could go out at once."""
 
 
+class LeaseLostError(LeaseHeldError):
+    """A state change waited in the queue while its requester lost the lease (expiry, release,
+    a disconnect, a takeover); it was refused just before sending: nothing was sent.
+
+    A :class:`LeaseHeldError`, so faces answer it as they answer any lease conflict."""
+
+    def __init__(self, line: str, command: str, who: Who, holder: LeaseInfo | None) -> None:
+        now = f"control is held by {holder.who}" if holder is not None else "the lease is free"
+        # not LeaseHeldError's own text ("control is held by ..."): the point is the loss
+        RobostarError.__init__(
+            self,
+            f"line {line}: {command} for {who} refused: the lease was lost before it was sent"
+            f" ({now}); nothing was sent",
+        )
+        self.line = line
+        self.holder = holder  # None: the lease is free, as LeaseHeldError has it
+
+
+class WithdrawnError(LineError):
+    """A request was taken out of the queue before it was sent, because its requester went away
+    (an N1 connection closed, a host gave the exchange up); nothing was sent."""
+
+
 @dataclass
 class LineHealth:
     """What a dashboard or a metrics scrape wants to know about a line."""
@@ -110,6 +144,8 @@ class _Job:
     command: Command[Any] = field(compare=False)
     future: asyncio.Future[Any] = field(compare=False)
     who: Who | None = field(compare=False, default=None)
+    started: bool = field(compare=False, default=False)
+    """The worker took it: its request may be on the wire."""
 
 
 def model_key(command: Command[Any]) -> str | None:
@@ -173,6 +209,8 @@ class Line:
         self._timeouts = 0
         self._jogs: dict[int, Who] = {}
         self._unsupported: set[str] = set()
+        """Poll reads the controller answered 0x33 (not supported): not asked again until the
+        line reopens (by :func:`model_key`, else the command's code)."""
         self._poll_now = asyncio.Event()
         self._reads_waiting = 0
         self._written = False
@@ -247,8 +285,22 @@ class Line:
         priority = PRI_STOP if is_stop else PRI_WRITE
         if isinstance(command, JogContinue):
             priority = PRI_KEEPALIVE
+        job: _Job | None = None
         try:
-            result = await self._submit(command, priority, who)
+            self._check_open()
+            job = self._enqueue_job(command, priority, who)
+            result: R = await job.future
+        except asyncio.CancelledError:
+            # the requester went away (a face draining at stop, a cancelled task): that is no
+            # error of the robot's, and a write on the wire may well have been carried out
+            self.record(command, who, _cancelled_outcome(job))
+            raise
+        except LeaseLostError as exc:
+            self.record(command, who, f"refused: {exc}")
+            raise
+        except WithdrawnError as exc:
+            self.record(command, who, f"cancelled, not sent: {exc}")
+            raise
         except BaseException as exc:
             self.record(command, who, f"error: {type(exc).__name__}: {exc}")
             raise
@@ -261,8 +313,11 @@ class Line:
             self._jogs.clear()
         return result
 
-    async def read(self, command: Command[R], *, max_age: float | None = None) -> R:
-        """Answer a read from the model when fresh enough, else from the line (and store it)."""
+    async def read(
+        self, command: Command[R], *, max_age: float | None = None, who: Who | None = None
+    ) -> R:
+        """Answer a read from the model when fresh enough, else from the line (and store it).
+        ``who`` (optional) lets :meth:`withdraw` take the read out of the queue."""
         if command.CHANGES_STATE:
             raise UsageError(f"{command.CODE} changes state: use execute(), with a lease holder")
         limit = self.config.max_age if max_age is None else max_age
@@ -278,7 +333,7 @@ class Line:
             )
         self._reads_waiting += 1
         try:
-            result = await self._submit(command, PRI_READ, None)
+            result = await self._submit(command, PRI_READ, who)
         finally:
             self._reads_waiting -= 1
         self._store(command, result)
@@ -302,18 +357,47 @@ class Line:
     def _enqueue(self, command: Command[R], priority: int, who: Who | None) -> asyncio.Future[R]:
         """Queue ``command``; its future gets the result. A job whose future is done (e.g.
         cancelled) before the worker reaches it is skipped."""
+        return cast("asyncio.Future[R]", self._enqueue_job(command, priority, who).future)
+
+    def _enqueue_job(self, command: Command[Any], priority: int, who: Who | None) -> _Job:
+        """:meth:`_enqueue`, giving the job (whether it has started is known by it)."""
         command.encode()  # bad input fails here, before it waits in the queue or reaches the wire
-        future: asyncio.Future[R] = asyncio.get_running_loop().create_future()
-        self._queue.put_nowait(_Job(priority, next(self._seq), command, future, who))
+        future: asyncio.Future[Any] = asyncio.get_running_loop().create_future()
+        job = _Job(priority, next(self._seq), command, future, who)
+        self._queue.put_nowait(job)
         if priority == PRI_STOP:
             self._preempt(command)
-        return future
+        return job
 
     def _preempt(self, stop: Command[Any]) -> None:
         job, task = self._current, self._current_task
         if job is not None and task is not None and isinstance(job.command, _TRANSFERS):
             self._aborted_by = stop
             task.cancel()
+
+    def withdraw(self, who: Who, why: str) -> int:
+        """Fail every request of ``who`` still in the queue (not yet sent) with
+        :class:`WithdrawnError` saying ``why``: its requester is gone, so no one would see the
+        outcome, and a state change must not run for someone no longer there. Stops stay (a
+        robot someone asked to stop is stopped all the same); a request already on the wire
+        runs to its end. Returns how many were withdrawn."""
+        kept: list[_Job] = []
+        withdrawn = 0
+        while not self._queue.empty():
+            job = self._queue.get_nowait()
+            if job.who != who or isinstance(job.command, STOPS):
+                kept.append(job)
+            elif not job.future.done():
+                job.future.set_exception(
+                    WithdrawnError(
+                        f"line {self.name}: {job.command.CODE} withdrawn before it was sent"
+                        f" ({why}); nothing was sent"
+                    )
+                )
+                withdrawn += 1
+        for job in kept:
+            self._queue.put_nowait(job)
+        return withdrawn
 
     def _fail_queued(self, error: BaseException) -> None:
         while not self._queue.empty():
@@ -336,14 +420,29 @@ class Line:
                 attempt = 0
                 self._first_attempt.set()
             job = await self._queue.get()
-            if job.future.done():
+            if job.future.done() or self._lease_lost_before_sending(job):
                 continue
             await self._run(job)
+
+    def _lease_lost_before_sending(self, job: _Job) -> bool:
+        """Refuse (fail) ``job`` if it needs its requester's lease and the requester no longer
+        holds it: the lease was checked when it was queued, but it may have waited behind a
+        slow exchange while the requester lost the lease and another took it. Stops need none."""
+        command, who = job.command, job.who
+        if who is None or not command.CHANGES_STATE or isinstance(command, STOPS):
+            return False
+        if self.lease.held_by(who):
+            return False
+        job.future.set_exception(
+            LeaseLostError(self.name, command.CODE, who, self.lease.holder)
+        )  # execute() audits the refusal
+        return True
 
     async def _run(self, job: _Job) -> None:
         client = self._client
         assert client is not None
         self._current = job
+        job.started = True
         self._aborted_by = None
         started = time.perf_counter()
         done: list[tuple[int, int | None]] = [(0, None)]
@@ -450,6 +549,9 @@ class Line:
             self.health.reconnects += 1
         self._client = client
         self.info = info
+        # the line may lead to another controller (or the same one reconfigured) now: what it
+        # did not support before is asked again
+        self._unsupported.clear()
         self.model.set("info", info)
         self.model.set("online", True)
         self._timeouts = 0
@@ -585,12 +687,32 @@ class Line:
             return
         try:
             result = await self._poll_read(command)
-        except ControllerError as exc:
-            # a channel without a robot, an option the controller lacks: stop asking
+        except NotSupportedError as exc:
+            # 0x33: a channel without a robot, an option the controller lacks: stop asking. The
+            # value it had (if any) is not vouched for any more.
             log.info("line %s: %s not polled any more (%s)", self.name, key, exc)
             self._unsupported.add(key)
+            self._mark_stale(command)
+            return
+        except ControllerError as exc:
+            # 0x31/0x32 ("cannot be done now"): a refusal of this moment, not of the value: ask
+            # again next cycle; meanwhile the old value must not say "good"
+            log.debug("line %s: poll of %s refused (%s)", self.name, key, exc)
+            self._mark_stale(command)
             return
         self._store(command, result)
+
+    def _mark_stale(self, command: Command[Any]) -> None:
+        """Mark STALE the good model values that ``command`` (a poll read) refreshes."""
+        if isinstance(command, ReadStatus):
+            keys = {f"ch{n}/status" for n in (1, 2, 3)}
+        else:
+            key = model_key(command)
+            keys = set() if key is None else {key}
+        if keys:
+            # the model marks by age, not by key: every other key is kept out of it
+            others = self.model.snapshot().keys() - keys
+            self.model.age_out(math.inf, keep=others)
 
     async def _poll_read(self, command: Command[R]) -> R:
         """A poll read: behind the consumers' reads, until the model would go stale waiting;
@@ -620,6 +742,16 @@ class Line:
                 await asyncio.sleep(0.01)
 
         await asyncio.wait_for(cycle(), timeout)
+
+
+def _cancelled_outcome(job: _Job | None) -> str:
+    """The audit outcome of a state change whose requester was cancelled while it waited."""
+    if job is None or not job.started:
+        return "cancelled, not sent"  # the worker skips a job whose future is done
+    future = job.future
+    if future.done() and not future.cancelled() and future.exception() is None:
+        return "ok (the requester went away before its answer)"
+    return "outcome unknown: the requester went away while it was on the wire"
 
 
 def _ignore_result(task: asyncio.Task[Any]) -> None:

@@ -4,7 +4,15 @@ Each connection is its own N1 session (robostar.serving). Reads are answered fro
 fresh; state changes go through the line's queue and lease: a connection takes the lease when it
 is free and keeps it while active (it expires after the lease's idle time, and is released when
 the connection closes). A request refused because another holds the lease answers flag 0x32, and
-KD then says who holds it.
+KD then says who holds it. A state change whose outcome the line cannot tell
+(OutcomeUnknownError: it may have been carried out) ends its exchange with RST, as a controller
+does when it cannot answer, never with a failure flag: a host that retries on failure would
+send a write that may have run a second time.
+
+A session's requests still waiting in the line's queue are withdrawn (nothing sent) when its
+connection closes or its host gives the exchange up (an RST, a new request): nobody would hear
+their outcome, and a write must not reach the robot for a host that has moved on or gone (its
+lease is released on disconnect, and another may hold it by then).
 """
 
 from __future__ import annotations
@@ -12,12 +20,15 @@ from __future__ import annotations
 import asyncio
 import logging
 import ssl
-from collections.abc import Mapping, Sequence
-from typing import TYPE_CHECKING
+from collections.abc import Callable, Mapping, Sequence
+from typing import TYPE_CHECKING, Any
 
+from robostar.commands.base import Command
 from robostar.commands.files import UploadFile
 from robostar.commands.system import ReadLastError
-from robostar.errors import ControllerError, RobostarError
+from robostar.errors import ControllerError, OutcomeUnknownError, RobostarError
+from robostar.protocol.frame import Control, ControlKind, FrameDecoder, FrameEvent, Packet
+from robostar.protocol.link import APP_TURN
 from robostar.serve.lease import LeaseHeldError, Who
 from robostar.serve.line import Line
 from robostar.serving import AsyncHost, Backend, Refusal, Request, Session
@@ -52,18 +63,32 @@ class LineBackend(Backend):
         task.add_done_callback(self._tasks.discard)
 
     async def _serve(self, request: Request) -> None:
+        if not request.live:
+            # its connection closed before this task ran: session_closed found nothing of it
+            # to withdraw, so it must not be queued now
+            return
         command = request.command
         who = self.who(request.session)
         try:
             if command.CHANGES_STATE:
                 result = await self.line.execute(command, who=who, implicit_lease=True)
             else:
-                result = await self.line.read(command)
+                result = await self.line.read(command, who=who)
         except ControllerError as exc:
             self._refuse(request, exc.reason or str(exc), exc.flag or _FLAG_FAILED)
             return
         except LeaseHeldError as exc:
             self._refuse(request, str(exc), _FLAG_FAILED)
+            return
+        except OutcomeUnknownError as exc:
+            # not 0x32: "failed" would tell the host that nothing happened. A controller that
+            # cannot say ends the exchange (RST); the host's link then reports the outcome as
+            # unknown (robostar's client: OutcomeUnknownError), and KD says why.
+            session = request.session
+            if isinstance(session, _LineSession):
+                session.abort_exchange(request, f"line server: {exc}")
+            else:  # a Session not made by session(): it cannot end the exchange itself
+                self._refuse(request, f"line server: {exc}", _FLAG_FAILED)
             return
         except RobostarError as exc:
             self._refuse(request, f"line server: {exc}", _FLAG_FAILED)
@@ -85,22 +110,126 @@ class LineBackend(Backend):
         if request.live:
             request.refuse(reason, flag)
 
-    def begin_upload(self, command: UploadFile) -> None:
-        # refuse before the lines are sent when another consumer holds the lease
+    def session(self, name: str, timeout: float) -> Session:
+        """A new N1 session on this backend (one per connection)."""
+        hooks = _SessionHooks(self)
+        session = _LineSession(hooks, name=name, timeout=timeout)
+        hooks.session = session
+        session.on_abandoned = lambda: self._withdraw(
+            session, "the host gave the exchange up (an RST or a new request)"
+        )
+        return session
+
+    def begin_upload(self, command: UploadFile, session: Session | None = None) -> None:
+        """Refuse an FB before its lines are sent when another consumer, another N1 session
+        included, holds the lease (``session``: the one uploading)."""
         holder = self.line.lease.holder
-        if holder is not None and holder.who.face == "n1":
+        if holder is None:
+            return  # free: the upload takes it when it is carried out
+        if session is None:
+            # serving's own hook does not say which session (see _SessionHooks): let an N1
+            # holder through, and the lease is checked when the upload is carried out
+            if holder.who.face == "n1":
+                return
+        elif holder.who == self.who(session):
             return
-        if holder is not None:
-            raise Refusal(str(LeaseHeldError(self.line.name, holder)), _FLAG_FAILED)
+        error = LeaseHeldError(self.line.name, holder)
+        if session is not None:
+            self.line.record(command, self.who(session), f"refused: {error}")
+        raise Refusal(str(error), _FLAG_FAILED)
 
     def session_closed(self, session: Session) -> None:
+        self._withdraw(session, "its N1 connection closed")
         self.line.lease.release(self.who(session))
+
+    def _withdraw(self, session: Session, why: str) -> None:
+        """Take ``session``'s requests still waiting in the line's queue out of it."""
+        withdrawn = self.line.withdraw(self.who(session), why)
+        if withdrawn:
+            log.info(
+                "line %s: %d request(s) of %s withdrawn: %s",
+                self.line.name,
+                withdrawn,
+                session.name,
+                why,
+            )
 
     async def drain(self) -> None:
         for task in list(self._tasks):
             task.cancel()
         if self._tasks:
             await asyncio.gather(*self._tasks, return_exceptions=True)
+
+
+class _LineSession(Session):
+    """An N1 session of the line server: serving's Session, plus what serving does not offer a
+    backend: ending the exchange with RST, and hearing at once that the host gave up a request
+    the backend still has (the link holds such input until the answer, then drops the answer)."""
+
+    def __init__(self, backend: Backend, *, name: str, timeout: float) -> None:
+        super().__init__(backend, name=name, timeout=timeout)
+        self.on_abandoned: Callable[[], None] | None = None
+        """Called when the host moves on while its request is with the backend."""
+        self._frames = FrameDecoder()
+        """The host's frames as the link decodes them (the same bytes, in step), so that what
+        the link holds during the backend's turn can be seen as it arrives."""
+
+    def receive_data(self, data: bytes, now: float) -> None:
+        with_backend = self._with_backend()
+        super().receive_data(data, now)
+        frames = self._frames.feed(data)
+        if with_backend and self.on_abandoned is not None and any(map(_moves_on, frames)):
+            self.on_abandoned()
+
+    def _with_backend(self) -> bool:
+        """A request of this session waits for the backend's answer (the link's hold)."""
+        request = self.current
+        return request is not None and request.live and self.link.state in APP_TURN
+
+    def abort_exchange(self, request: Request, reason: str) -> None:
+        """End ``request``'s exchange with RST (if the host still waits for it); KD: ``reason``."""
+        if not request.live or self.closed:
+            return
+        # the link sends RST and reports the exchange failed; the session drops the request as
+        # it does any exchange the link gave up, then takes whatever input the link held
+        self._run(self.link.abort(asyncio.get_running_loop().time()))
+        self._frames.reset()  # as the link's decoder is, after its RST
+        self.error(reason)  # after the session's own "exchange dropped": KD says why
+        if self.on_ready is not None:
+            self.on_ready()  # the host writes the RST out now, not with its next input
+
+
+def _moves_on(frame: FrameEvent) -> bool:
+    """The host gave up the exchange open on the link: an RST or any packet (the link's own
+    rule, ``Link._peer_moved_on``); ACK, NAK and damaged frames are noise."""
+    return isinstance(frame, Packet) or (
+        isinstance(frame, Control) and frame.kind is ControlKind.RST
+    )
+
+
+class _SessionHooks(Backend):
+    """A :class:`LineBackend` as one session sees it. serving calls ``begin_upload`` without
+    saying which session uploads; this per-session face of the shared backend passes it on, so
+    that an FB from a session other than the lease holder is refused before its lines."""
+
+    def __init__(self, backend: LineBackend) -> None:
+        self.backend = backend
+        self.session: Session | None = None
+
+    def handle(self, request: Request) -> None:
+        self.backend.handle(request)
+
+    def begin_upload(self, command: UploadFile) -> None:
+        self.backend.begin_upload(command, self.session)
+
+    def note_error(self, session: Session, text: str) -> None:
+        self.backend.note_error(session, text)
+
+    def session_closed(self, session: Session) -> None:
+        self.backend.session_closed(session)
+
+    def dress_answer(self, command: Command[Any], packets: list[bytes]) -> list[bytes]:
+        return self.backend.dress_answer(command, packets)
 
 
 class N1Face:
@@ -137,7 +266,7 @@ class N1Face:
         timeout = self.server.lines[name].config.timeout
 
         def factory(conn: str) -> Session:
-            return Session(backend, name=conn, timeout=timeout)
+            return backend.session(conn, timeout)
 
         n1 = AsyncHost(factory, name=f"n1 {name}")
         self.addresses[name] = await n1.start(
