@@ -9,6 +9,8 @@ context sends BG). Losing the terminal stops it too, and leaving always sends BG
 
 from __future__ import annotations
 
+import contextlib
+import termios
 import time
 from contextlib import ExitStack
 from dataclasses import dataclass, field
@@ -34,6 +36,7 @@ from robostar.cli.teach import (
     read_point,
     write_point,
 )
+from robostar.client.jog import Jog
 from robostar.commands.control import ReadSpeed, SetSpeed
 from robostar.commands.motion import JogContinue, JogStart, JogStop
 from robostar.commands.status import ReadInfo, ReadPosition, ReadStatus
@@ -66,6 +69,10 @@ __all__ = [
 SPEED_STEP = 50
 REPEAT_HOLD = 0.2
 """How long one autorepeat keeps a jog going; autorepeat sends keys every 30-50 ms."""
+DEADMAN_GRACE = 0.1
+"""How long after the pad's own key-hold deadline the jog's keepalive lets go by itself. The
+pad stops the jog at the deadline; the keepalive stops it only when the pad's loop is stuck
+(a screen write blocked by Ctrl-S or a backed-up SSH session), so the two never race."""
 
 _PLUS = {"right", "d", "l", "."}
 _MINUS = {"left", "a", "h", ","}
@@ -329,6 +336,8 @@ class _PadRunner:
         self.poll = poll
         self.teach = teach
         self._jog = ExitStack()
+        self._running: Jog | None = None
+        """The jog in ``_jog``, if one runs."""
         self._taught: Point | None = None
         self._last: tuple[float, ...] | None = None
         self._still = 0
@@ -339,11 +348,16 @@ class _PadRunner:
         try:
             if isinstance(action, StartJog):
                 direction = "+" if action.direction is JogDirection.PLUS else "-"
-                self._jog.enter_context(
-                    self.client.jog(channel, action.axis, action.direction, motion=self.pad.motion)
+                jog = self.client.jog(
+                    channel, action.axis, action.direction, motion=self.pad.motion
                 )
+                # The dead-man's switch: the keepalive stops the jog by itself if this loop
+                # hangs past the key-hold deadline (it cannot stop it while stuck).
+                jog.held_until = self._hold_deadline
+                self._running = self._jog.enter_context(jog)
                 self.view.message = Text(f"jogging axis {action.axis} {direction}", "yellow")
             elif isinstance(action, StopJog):
+                self._running = None
                 self._jog.close()
                 self.view.message = Text("stopped", "green")
             elif isinstance(action, ChangeSpeed):
@@ -370,6 +384,27 @@ class _PadRunner:
             self.pad.jogging = None
             self._jog = ExitStack()
             self.view.message = Text(str(error), "bold red")
+        return True
+
+    def _hold_deadline(self) -> float:
+        return self.pad.held_until + DEADMAN_GRACE
+
+    def lapsed(self) -> bool:
+        """True (once) when the jog's keepalive let go because this loop fell behind the key
+        hold: the pad then forgets that jog, and the keys that came meanwhile are stale."""
+        jog = self._running
+        if jog is None or not jog.expired or self.pad.jogging is None:
+            return False
+        self.pad.jogging = None
+        self._running = None
+        stack, self._jog = self._jog, ExitStack()
+        with contextlib.suppress(RobostarError):
+            stack.close()  # BG once more; the keepalive already sent one
+        self.view.message = Text(
+            "the jog stopped: the pad fell behind (its screen output was blocked); "
+            "press the key again",
+            "bold red",
+        )
         return True
 
     def _teach(self, action: AskTeach | Teach | AskGoto | Goto | Cancel) -> None:
@@ -453,6 +488,9 @@ class _PadRunner:
                         keys = reader.read(wake - time.monotonic())
                     except TerminalLost:
                         return
+                    if self.lapsed():
+                        keys = []  # typed while the pad was stuck: never replay them
+                        flush_input(reader)
                     now = time.monotonic()
                     actions: list[Action] = []
                     for key in keys:
@@ -469,6 +507,15 @@ class _PadRunner:
             self._jog.close()
         finally:
             self.client.execute(JogStop(self.view.channel))
+
+
+def flush_input(reader: KeyReader) -> None:
+    """Drop the keys typed while the pad could not read them (a stall, a blocking action), so
+    that a key let go long ago never jogs the robot."""
+    if not reader.is_terminal():
+        return
+    with contextlib.suppress(OSError, ValueError, termios.error):
+        termios.tcflush(reader._fd, termios.TCIFLUSH)
 
 
 @click.command()
