@@ -355,6 +355,7 @@ class _PadRunner:
                 # hangs past the key-hold deadline (it cannot stop it while stuck).
                 jog.held_until = self._hold_deadline
                 self._running = self._jog.enter_context(jog)
+                self.pad.jogging = action.direction  # it runs, whatever failed before it
                 self.view.message = Text(f"jogging axis {action.axis} {direction}", "yellow")
             elif isinstance(action, StopJog):
                 self._running = None
@@ -370,21 +371,30 @@ class _PadRunner:
             else:
                 return False
         except ControllerError as error:
-            self.pad.jogging = None
-            self._jog = ExitStack()
+            self._drop_jog()
             reason = error.reason or error.describe
             self.view.message = Text(f"refused: {reason}", "bold red")
         except LineError as error:
-            self.pad.jogging = None
-            self._jog = ExitStack()
+            self._drop_jog()
             self.view.line_ok = False
             self.view.message = Text(f"line failed: {error}", "bold red")
         except RobostarError as error:
             # A jog whose keepalive failed has stopped on the controller: say so, carry on.
-            self.pad.jogging = None
-            self._jog = ExitStack()
+            self._drop_jog()
             self.view.message = Text(str(error), "bold red")
         return True
+
+    def _drop_jog(self) -> None:
+        """After an error: stop the jog that runs, if any, and say that none does.
+
+        Closing the jog halts its keepalive before anything can fail, then sends BG; if that
+        BG fails too, the controller stops the jog within 500 ms of the last BF. Errors are
+        suppressed: the one being handled is what the pad shows."""
+        self.pad.jogging = None
+        self._running = None
+        stack, self._jog = self._jog, ExitStack()
+        with contextlib.suppress(Exception):
+            stack.close()
 
     def _hold_deadline(self) -> float:
         return self.pad.held_until + DEADMAN_GRACE
@@ -395,11 +405,7 @@ class _PadRunner:
         jog = self._running
         if jog is None or not jog.expired or self.pad.jogging is None:
             return False
-        self.pad.jogging = None
-        self._running = None
-        stack, self._jog = self._jog, ExitStack()
-        with contextlib.suppress(RobostarError):
-            stack.close()  # BG once more; the keepalive already sent one
+        self._drop_jog()  # BG once more; the keepalive already sent one
         self.view.message = Text(
             "the jog stopped: the pad fell behind (its screen output was blocked); "
             "press the key again",
