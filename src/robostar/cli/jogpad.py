@@ -31,13 +31,12 @@ from robostar.cli.teach import (
     GOTO_SPEED,
     Target,
     current_point,
-    goto,
     point_text,
     read_point,
     write_point,
 )
 from robostar.client.jog import Jog
-from robostar.commands.control import ReadSpeed, SetSpeed
+from robostar.commands.control import EmergencyStop, ReadSpeed, SetSpeed
 from robostar.commands.motion import JogContinue, JogStart, JogStop
 from robostar.commands.status import ReadInfo, ReadPosition, ReadStatus
 from robostar.errors import ControllerError, LineError, RobostarError, UsageError
@@ -61,6 +60,7 @@ __all__ = [
     "Quit",
     "StartJog",
     "StopJog",
+    "StopMove",
     "Teach",
     "ToggleMotion",
     "jog",
@@ -136,9 +136,15 @@ class Cancel:
     """A typed point number or a question was abandoned."""
 
 
+@dataclass(frozen=True, slots=True)
+class StopMove:
+    """Stop the pad's goto now: CF, the emergency stop (a move has no gentler stop)."""
+
+
 Action = (
     StartJog
     | StopJog
+    | StopMove
     | ChangeSpeed
     | ToggleMotion
     | Quit
@@ -168,12 +174,21 @@ class JogPad:
     """"t" or "g" while a point number is typed; ``typed`` holds its digits."""
     typed: str = ""
     asking: AskTeach | AskGoto | None = None
+    moving: bool = False
+    """A goto runs (set by whoever started it): only space and the leave keys count, and
+    they stop it; every other key is read and ignored, never kept for later."""
     _actions: list[Action] = field(default_factory=list)
 
     def key(self, name: str, now: float) -> list[Action]:
         """Take one key press (or autorepeat) at time ``now``."""
         self._actions = []
-        if self.asking is not None:
+        if self.moving:
+            if name == "space" or name in _QUIT:
+                self.moving = False
+                self._actions.append(StopMove())
+            if name in _QUIT:
+                self._actions.append(Quit())
+        elif self.asking is not None:
             self._answer(name)
         elif self.entry is not None:
             self._type(name)
@@ -279,6 +294,10 @@ _HELP = (
 
 _TEACH_HELP = "t NUMBER Enter: store the position into that point   g NUMBER Enter: go there slowly"
 
+_FLUSH_AFTER = REPEAT_HOLD
+"""Keys that waited longer than this for a busy pad are stale: a held key's repeats would have
+let the jog go meanwhile, and a question's answer cannot have been seen yet."""
+
 
 def _render(pad: JogPad, view: _View) -> RenderableType:
     table = Table(box=None, pad_edge=False, expand=False)
@@ -338,6 +357,8 @@ class _PadRunner:
         self._jog = ExitStack()
         self._running: Jog | None = None
         """The jog in ``_jog``, if one runs."""
+        self._goto: tuple[Target, int] | None = None
+        """The goto that runs, and the channel speed to put back when it ends."""
         self._taught: Point | None = None
         self._last: tuple[float, ...] | None = None
         self._still = 0
@@ -364,6 +385,8 @@ class _PadRunner:
             elif isinstance(action, ChangeSpeed):
                 self.client.execute(SetSpeed(channel, action.speed))
                 self.view.message = Text(f"speed {action.speed}")
+            elif isinstance(action, StopMove):
+                self._stop_goto()
             elif isinstance(action, ToggleMotion):
                 self.view.message = Text(f"motion {action.motion.name.lower()}")
             elif isinstance(action, AskTeach | Teach | AskGoto | Goto | Cancel):
@@ -442,9 +465,61 @@ class _PadRunner:
         elif isinstance(action, Goto):
             point = read_point(self.client, channel, target)
             if point is not None:
-                self.view.message = Text(f"moving to {target}...", "yellow")
-                goto(self.client, channel, target, point, GOTO_SPEED)
-                self.view.message = Text(f"at {target}", "green")
+                self._start_goto(target)
+
+    def _start_goto(self, target: Target) -> None:
+        """Start the move to ``target`` at GOTO_SPEED without waiting for it (as teach's goto
+        does, but the loop keeps reading keys and redrawing): refresh() sees it arrive."""
+        channel = self.view.channel
+        before = self.client.speed(channel)
+        self.client.set_speed(channel, GOTO_SPEED)
+        try:
+            self.client.move_to_point(channel, str(self.teach), target.number, motion="joint")
+        except BaseException:
+            with contextlib.suppress(RobostarError):
+                self.client.set_speed(channel, before)
+            raise
+        self._goto = (target, before)
+        self.pad.moving = True
+        self.view.message = Text(
+            f"moving to {target}...   space: stop now (emergency stop)", "bold yellow"
+        )
+
+    def _end_goto(self, message: Text) -> None:
+        """The goto is over (arrived, stopped, failed): put the channel's speed back."""
+        if self._goto is None:
+            return
+        before = self._goto[1]
+        self._goto = None
+        self.pad.moving = False
+        self.view.message = message
+        self.client.set_speed(self.view.channel, before)
+
+    def _follow_goto(self, status: ChannelStatus) -> None:
+        if self._goto is None or status.running:
+            return
+        target = self._goto[0]
+        if status.alarm:
+            self._end_goto(Text(f"the move to {target} stopped with an alarm", "bold red"))
+        elif status.in_position:
+            self._end_goto(Text(f"at {target}", "green"))
+
+    def _stop_goto(self) -> None:
+        """Space or a leave key during a goto: CF, the only stop a move has."""
+        if self._goto is None:
+            return
+        try:
+            self.client.execute(EmergencyStop())
+        except BaseException:
+            self.pad.moving = True  # still moving as far as we know: space tries again
+            raise
+        self._end_goto(
+            Text(
+                "stopped the move with an emergency stop (CF): clear its alarm with "
+                "`robostar reset`",
+                "bold red",
+            )
+        )
 
     def _stalled(self, position: Position) -> None:
         """A jog whose position stops changing has been stopped by the controller: say why."""
@@ -473,6 +548,7 @@ class _PadRunner:
             self.view.status = self.client.execute(ReadStatus())[channel - 1]
             self.view.line_ok = True
             self._stalled(self.view.position)
+            self._follow_goto(self.view.status)
         except ControllerError as error:
             self.view.message = Text(f"refused: {error.reason or error.describe}", "bold red")
         except LineError:
@@ -500,19 +576,38 @@ class _PadRunner:
                     now = time.monotonic()
                     actions: list[Action] = []
                     for key in keys:
-                        actions += self.pad.key(key, now)
+                        done = self.pad.key(key, now)
+                        actions += done
+                        if any(isinstance(a, AskTeach | Teach | AskGoto | Goto) for a in done):
+                            # The rest was typed before the question (or the move) was on
+                            # screen: it must not answer it, nor jog during the move.
+                            break
                     actions += self.pad.tick(now)
                     if not all(self.apply(a) for a in actions):
                         return
+                    if self._busy(actions, time.monotonic() - now):
+                        flush_input(reader)
             finally:
                 self.close()
 
+    def _busy(self, actions: list[Action], took: float) -> bool:
+        """Whether keys typed while ``actions`` ran are stale (see _FLUSH_AFTER): after a
+        question's reads or a store, or anything slow. Not while a goto runs: its keys are
+        read at once, and space must stop it."""
+        if self.pad.moving:
+            return False
+        asks = any(isinstance(a, AskTeach | Teach | AskGoto) for a in actions)
+        return asks or took > _FLUSH_AFTER
+
     def close(self) -> None:
-        """Stop any jog, then send BG whatever state we think we are in."""
+        """Stop any jog and any goto, then send BG whatever state we think we are in."""
         try:
             self._jog.close()
         finally:
-            self.client.execute(JogStop(self.view.channel))
+            try:
+                self._stop_goto()
+            finally:
+                self.client.execute(JogStop(self.view.channel))
 
 
 def flush_input(reader: KeyReader) -> None:
