@@ -284,6 +284,10 @@ class _View:
     message: Text = field(default_factory=Text)
     line_ok: bool = True
     scara: bool = False
+    target: str = ""
+    """The session's banner (SIMULATOR or controller, the port): the full screen hides the
+    one printed on stderr, and a simulator's pad must not pass for a robot's."""
+    simulator: bool = False
 
 
 _HELP = (
@@ -335,7 +339,14 @@ def _render(pad: JogPad, view: _View) -> RenderableType:
     parts.append(Text(_HELP, style="dim"))
     if pad.teaching:
         parts.append(Text(_TEACH_HELP, style="dim"))
-    return Panel(Group(*parts), title="robostar jog", border_style="cyan")
+    return Panel(Group(*parts), title=_title("robostar jog", view), border_style="cyan")
+
+
+def _title(name: str, view: _View) -> Text:
+    if not view.target:
+        return Text(name)
+    style = "bold magenta" if view.simulator else "bold"
+    return Text.assemble(name, "  ", (view.target, style))
 
 
 def _jog_direction(text: str) -> JogDirection:
@@ -729,7 +740,13 @@ def jog(
     current_speed = session.send(ReadSpeed(channel))
     pad = JogPad(axes=axes, speed=current_speed, hold=hold, axis=min(axis, axes), motion=motion)
     pad.teaching = teach_file is not None
-    view = _View(channel, info.model, scara=info.robot_type is RobotType.SCARA)
+    view = _View(
+        channel,
+        info.model,
+        scara=info.robot_type is RobotType.SCARA,
+        target=session.banner(),
+        simulator=session.simulator,
+    )
     session.announce(f"Jog pad on channel {channel}: the robot moves while you hold a key.")
     runner = _PadRunner(session, pad, view, poll, teach_file)
     with reader.cbreak():
