@@ -7,6 +7,7 @@ answer, and keeps trying; the last values stay on screen, dimmed.
 
 from __future__ import annotations
 
+import contextlib
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -300,9 +301,7 @@ def monitor(
             [ReadInfo(), ReadStatus(), *(ReadPosition(c) for c in chosen)],
             note="Repeated at every refresh, with CA, EF, ED, AB, GA and GB.",
         )
-    if session.settings.timeout is None:
-        session.client_options(timeout=MONITOR_TIMEOUT)
-    session.client_options(reconnect=True)
+    _client_options(session)
     kinds = {"pulse": PositionKind.PULSE, "angle": PositionKind.ANGLE, "xy": PositionKind.XY}
     sampler = Sampler(session.client.execute, chosen, port_list, kinds[kind])
     # After the client is open: a served simulator is known only once it has answered AD.
@@ -328,6 +327,18 @@ def monitor(
                         return
             except TerminalLost:
                 return
+
+
+def _client_options(session: Session) -> None:
+    """A short reply timeout (unless --timeout is given) and reconnecting, for a client the
+    monitor opens. In `robostar shell` the client is the shell's, open before this line ran,
+    and Session refuses options then (RuntimeError, its only one): `watch` keeps the shell's
+    timeout and connection rather than ending the shell."""
+    options: dict[str, Any] = {"reconnect": True}
+    if session.settings.timeout is None:
+        options["timeout"] = MONITOR_TIMEOUT
+    with contextlib.suppress(RuntimeError):
+        session.client_options(**options)
 
 
 def _print_samples(
