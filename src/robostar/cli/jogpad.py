@@ -69,10 +69,15 @@ __all__ = [
 SPEED_STEP = 50
 REPEAT_HOLD = 0.2
 """How long one autorepeat keeps a jog going; autorepeat sends keys every 30-50 ms."""
-DEADMAN_GRACE = 0.1
+DEADMAN_GRACE = 0.3
 """How long after the pad's own key-hold deadline the jog's keepalive lets go by itself. The
 pad stops the jog at the deadline; the keepalive stops it only when the pad's loop is stuck
-(a screen write blocked by Ctrl-S or a backed-up SSH session), so the two never race."""
+(a screen write blocked by Ctrl-S or a backed-up SSH session), so the two never race, and a
+position read on a slow serial line (two exchanges at 9600 baud) does not cut a held jog."""
+STALE_AFTER = 0.5
+"""Keys that waited longer than this for a busy pad (a line that does not answer, a point read
+or stored, a blocked screen) are dropped: the key was most likely let go long ago. Shorter
+waits are a slow line's normal pace, and dropping their repeats would make a held jog stutter."""
 
 _PLUS = {"right", "d", "l", "."}
 _MINUS = {"left", "a", "h", ","}
@@ -298,10 +303,6 @@ _HELP = (
 
 _TEACH_HELP = "t NUMBER Enter: store the position into that point   g NUMBER Enter: go there slowly"
 
-_FLUSH_AFTER = REPEAT_HOLD
-"""Keys that waited longer than this for a busy pad are stale: a held key's repeats would have
-let the jog go meanwhile, and a question's answer cannot have been seen yet."""
-
 
 def _render(pad: JogPad, view: _View) -> RenderableType:
     table = Table(box=None, pad_edge=False, expand=False)
@@ -441,8 +442,8 @@ class _PadRunner:
             return False
         self._drop_jog()  # BG once more; the keepalive already sent one
         self.view.message = Text(
-            "the jog stopped: the pad fell behind (its screen output was blocked); "
-            "press the key again",
+            "the jog stopped: the pad fell behind the key (its screen output was blocked, "
+            "or the line was slow); press the key again",
             "bold red",
         )
         return True
@@ -568,6 +569,7 @@ class _PadRunner:
     def run(self, reader: KeyReader) -> None:
         console = self.session.out.console
         next_poll = 0.0
+        read_at = time.monotonic()
         with Live(console=console, screen=True, auto_refresh=False) as live:
             try:
                 while True:
@@ -576,11 +578,15 @@ class _PadRunner:
                         self.refresh()
                         next_poll = now + self.poll
                     live.update(_render(self.pad, self.view), refresh=True)
+                    # Not during a goto: its keys are read as they come, and space stops it.
+                    if not self.pad.moving and time.monotonic() - read_at > STALE_AFTER:
+                        flush_input(reader)
                     wake = min(next_poll, self.pad.next_deadline() or next_poll)
                     try:
                         keys = reader.read(wake - time.monotonic())
                     except TerminalLost:
                         return
+                    read_at = time.monotonic()
                     if self.lapsed():
                         keys = []  # typed while the pad was stuck: never replay them
                         flush_input(reader)
@@ -596,19 +602,12 @@ class _PadRunner:
                     actions += self.pad.tick(now)
                     if not all(self.apply(a) for a in actions):
                         return
-                    if self._busy(actions, time.monotonic() - now):
+                    if any(isinstance(a, AskTeach | Teach | AskGoto) for a in actions):
+                        # Anything typed during a question's reads or a store was typed
+                        # before the question or its outcome was on screen.
                         flush_input(reader)
             finally:
                 self.close()
-
-    def _busy(self, actions: list[Action], took: float) -> bool:
-        """Whether keys typed while ``actions`` ran are stale (see _FLUSH_AFTER): after a
-        question's reads or a store, or anything slow. Not while a goto runs: its keys are
-        read at once, and space must stop it."""
-        if self.pad.moving:
-            return False
-        asks = any(isinstance(a, AskTeach | Teach | AskGoto) for a in actions)
-        return asks or took > _FLUSH_AFTER
 
     def close(self) -> None:
         """Stop any jog and any goto, then send BG whatever state we think we are in."""
@@ -626,6 +625,7 @@ def flush_input(reader: KeyReader) -> None:
     that a key let go long ago never jogs the robot."""
     if not reader.is_terminal():
         return
+    # KeyReader (cli/keys.py) has no flush of its own; its descriptor is the one it reads.
     with contextlib.suppress(OSError, ValueError, termios.error):
         termios.tcflush(reader._fd, termios.TCIFLUSH)
 
