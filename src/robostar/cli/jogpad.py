@@ -4,7 +4,9 @@ The pad jogs only while a key is held. A terminal reports presses, not releases:
 sends one press and then, after the keyboard's autorepeat delay, a stream of repeats. So a
 first press keeps the jog going for ``--hold`` seconds (just over the autorepeat delay), each
 repeat for a short window more, and when the repeats stop the jog stops (the client's jog
-context sends BG). Losing the terminal stops it too, and leaving always sends BG.
+context sends BG). Losing the terminal stops it too, and leaving always sends BG. The jog also
+carries the hold deadline as its dead-man's switch: if this loop hangs (its screen output
+blocked), the keepalive stops the jog by itself.
 """
 
 from __future__ import annotations
