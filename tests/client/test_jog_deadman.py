@@ -42,9 +42,9 @@ def test_a_jog_whose_hold_passes_stops_itself_while_the_body_hangs(
         assert jog.error is None
     bfs = _after(arrivals, started, "BF")
     bgs = _after(arrivals, started, "BG")
-    assert bfs and max(bfs) < 0.3 + 0.05, bfs  # no BF once the hold has passed
     assert len(bgs) == 2, bgs  # the switch's BG, then the block's own
-    assert 0.3 <= bgs[0] < 0.3 + 0.15, bgs  # at the deadline, not an interval later
+    assert bfs and max(bfs) < bgs[0], (bfs, bgs)  # no BF once the switch let go
+    assert 0.3 <= bgs[0] < 0.3 + 0.3, bgs  # at the deadline, well before the body ends
 
 
 def test_a_switch_given_at_construction_is_kept(controller: VirtualController) -> None:
@@ -66,12 +66,12 @@ def test_a_hold_that_keeps_being_extended_keeps_the_jog_alive(
 ) -> None:
     arrivals = Arrivals(controller)
     with Client(PeerTransport(arrivals), timeout=1.0) as client:
-        held = [time.monotonic() + 0.25]
+        held = [time.monotonic() + 0.5]
         with client.jog(1, 1, "+") as jog:
             jog.held_until = lambda: held[0]
-            end = time.monotonic() + 1.2
-            while time.monotonic() < end:  # key repeats, each holding it 0.25 s more
-                held[0] = time.monotonic() + 0.25
+            end = time.monotonic() + 1.5
+            while time.monotonic() < end:  # key repeats, each holding it 0.5 s more
+                held[0] = time.monotonic() + 0.5
                 time.sleep(0.04)
             assert not jog.expired
             assert client.status()[0].running
@@ -105,7 +105,8 @@ def test_async_jog_honours_the_switch_too(controller: VirtualController) -> None
                 assert not (await client.status())[0].running
             assert jog.error is None
         bfs = _after(arrivals, started, "BF")
-        assert bfs and max(bfs) < 0.3 + 0.05, bfs
+        bgs = _after(arrivals, started, "BG")
+        assert bfs and bgs and max(bfs) < bgs[0], (bfs, bgs)
 
     asyncio.run(main())
     assert arrivals.count("BG") == 2
