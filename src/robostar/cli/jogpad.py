@@ -4,11 +4,15 @@ The pad jogs only while a key is held. A terminal reports presses, not releases:
 sends one press and then, after the keyboard's autorepeat delay, a stream of repeats. So a
 first press keeps the jog going for ``--hold`` seconds (just over the autorepeat delay), each
 repeat for a short window more, and when the repeats stop the jog stops (the client's jog
-context sends BG). Losing the terminal stops it too, and leaving always sends BG.
+context sends BG). Losing the terminal stops it too, and leaving always sends BG. The jog also
+carries the hold deadline as its dead-man's switch: if this loop hangs (its screen output
+blocked), the keepalive stops the jog by itself.
 """
 
 from __future__ import annotations
 
+import contextlib
+import termios
 import time
 from contextlib import ExitStack
 from dataclasses import dataclass, field
@@ -29,12 +33,12 @@ from robostar.cli.teach import (
     GOTO_SPEED,
     Target,
     current_point,
-    goto,
     point_text,
     read_point,
     write_point,
 )
-from robostar.commands.control import ReadSpeed, SetSpeed
+from robostar.client.jog import Jog
+from robostar.commands.control import EmergencyStop, ReadSpeed, SetSpeed
 from robostar.commands.motion import JogContinue, JogStart, JogStop
 from robostar.commands.status import ReadInfo, ReadPosition, ReadStatus
 from robostar.errors import ControllerError, LineError, RobostarError, UsageError
@@ -58,6 +62,7 @@ __all__ = [
     "Quit",
     "StartJog",
     "StopJog",
+    "StopMove",
     "Teach",
     "ToggleMotion",
     "jog",
@@ -66,6 +71,15 @@ __all__ = [
 SPEED_STEP = 50
 REPEAT_HOLD = 0.2
 """How long one autorepeat keeps a jog going; autorepeat sends keys every 30-50 ms."""
+DEADMAN_GRACE = 0.3
+"""How long after the pad's own key-hold deadline the jog's keepalive lets go by itself. The
+pad stops the jog at the deadline; the keepalive stops it only when the pad's loop is stuck
+(a screen write blocked by Ctrl-S or a backed-up SSH session), so the two never race, and a
+position read on a slow serial line (two exchanges at 9600 baud) does not cut a held jog."""
+STALE_AFTER = 0.5
+"""Keys that waited longer than this for a busy pad (a line that does not answer, a point read
+or stored, a blocked screen) are dropped: the key was most likely let go long ago. Shorter
+waits are a slow line's normal pace, and dropping their repeats would make a held jog stutter."""
 
 _PLUS = {"right", "d", "l", "."}
 _MINUS = {"left", "a", "h", ","}
@@ -129,9 +143,15 @@ class Cancel:
     """A typed point number or a question was abandoned."""
 
 
+@dataclass(frozen=True, slots=True)
+class StopMove:
+    """Stop the pad's goto now: CF, the emergency stop (a move has no gentler stop)."""
+
+
 Action = (
     StartJog
     | StopJog
+    | StopMove
     | ChangeSpeed
     | ToggleMotion
     | Quit
@@ -161,12 +181,21 @@ class JogPad:
     """"t" or "g" while a point number is typed; ``typed`` holds its digits."""
     typed: str = ""
     asking: AskTeach | AskGoto | None = None
+    moving: bool = False
+    """A goto runs (set by whoever started it): only space and the leave keys count, and
+    they stop it; every other key is read and ignored, never kept for later."""
     _actions: list[Action] = field(default_factory=list)
 
     def key(self, name: str, now: float) -> list[Action]:
         """Take one key press (or autorepeat) at time ``now``."""
         self._actions = []
-        if self.asking is not None:
+        if self.moving:
+            if name == "space" or name in _QUIT:
+                self.moving = False
+                self._actions.append(StopMove())
+            if name in _QUIT:
+                self._actions.append(Quit())
+        elif self.asking is not None:
             self._answer(name)
         elif self.entry is not None:
             self._type(name)
@@ -262,6 +291,10 @@ class _View:
     message: Text = field(default_factory=Text)
     line_ok: bool = True
     scara: bool = False
+    target: str = ""
+    """The session's banner (SIMULATOR or controller, the port): the full screen hides the
+    one printed on stderr, and a simulator's pad must not pass for a robot's."""
+    simulator: bool = False
 
 
 _HELP = (
@@ -309,7 +342,14 @@ def _render(pad: JogPad, view: _View) -> RenderableType:
     parts.append(Text(_HELP, style="dim"))
     if pad.teaching:
         parts.append(Text(_TEACH_HELP, style="dim"))
-    return Panel(Group(*parts), title="robostar jog", border_style="cyan")
+    return Panel(Group(*parts), title=_title("robostar jog", view), border_style="cyan")
+
+
+def _title(name: str, view: _View) -> Text:
+    if not view.target:
+        return Text(name)
+    style = "bold magenta" if view.simulator else "bold"
+    return Text.assemble(name, "  ", (view.target, style))
 
 
 def _jog_direction(text: str) -> JogDirection:
@@ -329,6 +369,10 @@ class _PadRunner:
         self.poll = poll
         self.teach = teach
         self._jog = ExitStack()
+        self._running: Jog | None = None
+        """The jog in ``_jog``, if one runs."""
+        self._goto: tuple[Target, int] | None = None
+        """The goto that runs, and the channel speed to put back when it ends."""
         self._taught: Point | None = None
         self._last: tuple[float, ...] | None = None
         self._still = 0
@@ -339,16 +383,24 @@ class _PadRunner:
         try:
             if isinstance(action, StartJog):
                 direction = "+" if action.direction is JogDirection.PLUS else "-"
-                self._jog.enter_context(
-                    self.client.jog(channel, action.axis, action.direction, motion=self.pad.motion)
+                jog = self.client.jog(
+                    channel, action.axis, action.direction, motion=self.pad.motion
                 )
+                # The dead-man's switch: the keepalive stops the jog by itself if this loop
+                # hangs past the key-hold deadline (it cannot stop it while stuck).
+                jog.held_until = self._hold_deadline
+                self._running = self._jog.enter_context(jog)
+                self.pad.jogging = action.direction  # it runs, whatever failed before it
                 self.view.message = Text(f"jogging axis {action.axis} {direction}", "yellow")
             elif isinstance(action, StopJog):
+                self._running = None
                 self._jog.close()
                 self.view.message = Text("stopped", "green")
             elif isinstance(action, ChangeSpeed):
                 self.client.execute(SetSpeed(channel, action.speed))
                 self.view.message = Text(f"speed {action.speed}")
+            elif isinstance(action, StopMove):
+                self._stop_goto()
             elif isinstance(action, ToggleMotion):
                 self.view.message = Text(f"motion {action.motion.name.lower()}")
             elif isinstance(action, AskTeach | Teach | AskGoto | Goto | Cancel):
@@ -356,20 +408,46 @@ class _PadRunner:
             else:
                 return False
         except ControllerError as error:
-            self.pad.jogging = None
-            self._jog = ExitStack()
+            self._drop_jog()
             reason = error.reason or error.describe
             self.view.message = Text(f"refused: {reason}", "bold red")
         except LineError as error:
-            self.pad.jogging = None
-            self._jog = ExitStack()
+            self._drop_jog()
             self.view.line_ok = False
             self.view.message = Text(f"line failed: {error}", "bold red")
         except RobostarError as error:
             # A jog whose keepalive failed has stopped on the controller: say so, carry on.
-            self.pad.jogging = None
-            self._jog = ExitStack()
+            self._drop_jog()
             self.view.message = Text(str(error), "bold red")
+        return True
+
+    def _drop_jog(self) -> None:
+        """After an error: stop the jog that runs, if any, and say that none does.
+
+        Closing the jog halts its keepalive before anything can fail, then sends BG; if that
+        BG fails too, the controller stops the jog within 500 ms of the last BF. Errors are
+        suppressed: the one being handled is what the pad shows."""
+        self.pad.jogging = None
+        self._running = None
+        stack, self._jog = self._jog, ExitStack()
+        with contextlib.suppress(Exception):
+            stack.close()
+
+    def _hold_deadline(self) -> float:
+        return self.pad.held_until + DEADMAN_GRACE
+
+    def lapsed(self) -> bool:
+        """True (once) when the jog's keepalive let go because this loop fell behind the key
+        hold: the pad then forgets that jog, and the keys that came meanwhile are stale."""
+        jog = self._running
+        if jog is None or not jog.expired or self.pad.jogging is None:
+            return False
+        self._drop_jog()  # BG once more; the keepalive already sent one
+        self.view.message = Text(
+            "the jog stopped: the pad fell behind the key (its screen output was blocked, "
+            "or the line was slow); press the key again",
+            "bold red",
+        )
         return True
 
     def _teach(self, action: AskTeach | Teach | AskGoto | Goto | Cancel) -> None:
@@ -401,9 +479,61 @@ class _PadRunner:
         elif isinstance(action, Goto):
             point = read_point(self.client, channel, target)
             if point is not None:
-                self.view.message = Text(f"moving to {target}...", "yellow")
-                goto(self.client, channel, target, point, GOTO_SPEED)
-                self.view.message = Text(f"at {target}", "green")
+                self._start_goto(target)
+
+    def _start_goto(self, target: Target) -> None:
+        """Start the move to ``target`` at GOTO_SPEED without waiting for it (as teach's goto
+        does, but the loop keeps reading keys and redrawing): refresh() sees it arrive."""
+        channel = self.view.channel
+        before = self.client.speed(channel)
+        self.client.set_speed(channel, GOTO_SPEED)
+        try:
+            self.client.move_to_point(channel, str(self.teach), target.number, motion="joint")
+        except BaseException:
+            with contextlib.suppress(RobostarError):
+                self.client.set_speed(channel, before)
+            raise
+        self._goto = (target, before)
+        self.pad.moving = True
+        self.view.message = Text(
+            f"moving to {target}...   space: stop now (emergency stop)", "bold yellow"
+        )
+
+    def _end_goto(self, message: Text) -> None:
+        """The goto is over (arrived, stopped, failed): put the channel's speed back."""
+        if self._goto is None:
+            return
+        before = self._goto[1]
+        self._goto = None
+        self.pad.moving = False
+        self.view.message = message
+        self.client.set_speed(self.view.channel, before)
+
+    def _follow_goto(self, status: ChannelStatus) -> None:
+        if self._goto is None or status.running:
+            return
+        target = self._goto[0]
+        if status.alarm:
+            self._end_goto(Text(f"the move to {target} stopped with an alarm", "bold red"))
+        elif status.in_position:
+            self._end_goto(Text(f"at {target}", "green"))
+
+    def _stop_goto(self) -> None:
+        """Space or a leave key during a goto: CF, the only stop a move has."""
+        if self._goto is None:
+            return
+        try:
+            self.client.execute(EmergencyStop())
+        except BaseException:
+            self.pad.moving = True  # still moving as far as we know: space tries again
+            raise
+        self._end_goto(
+            Text(
+                "stopped the move with an emergency stop (CF): clear its alarm with "
+                "`robostar reset`",
+                "bold red",
+            )
+        )
 
     def _stalled(self, position: Position) -> None:
         """A jog whose position stops changing has been stopped by the controller: say why."""
@@ -432,6 +562,7 @@ class _PadRunner:
             self.view.status = self.client.execute(ReadStatus())[channel - 1]
             self.view.line_ok = True
             self._stalled(self.view.position)
+            self._follow_goto(self.view.status)
         except ControllerError as error:
             self.view.message = Text(f"refused: {error.reason or error.describe}", "bold red")
         except LineError:
@@ -440,6 +571,7 @@ class _PadRunner:
     def run(self, reader: KeyReader) -> None:
         console = self.session.out.console
         next_poll = 0.0
+        read_at = time.monotonic()
         with Live(console=console, screen=True, auto_refresh=False) as live:
             try:
                 while True:
@@ -448,27 +580,56 @@ class _PadRunner:
                         self.refresh()
                         next_poll = now + self.poll
                     live.update(_render(self.pad, self.view), refresh=True)
+                    # Not during a goto: its keys are read as they come, and space stops it.
+                    if not self.pad.moving and time.monotonic() - read_at > STALE_AFTER:
+                        flush_input(reader)
                     wake = min(next_poll, self.pad.next_deadline() or next_poll)
                     try:
                         keys = reader.read(wake - time.monotonic())
                     except TerminalLost:
                         return
+                    read_at = time.monotonic()
+                    if self.lapsed():
+                        keys = []  # typed while the pad was stuck: never replay them
+                        flush_input(reader)
                     now = time.monotonic()
                     actions: list[Action] = []
                     for key in keys:
-                        actions += self.pad.key(key, now)
+                        done = self.pad.key(key, now)
+                        actions += done
+                        if any(isinstance(a, AskTeach | Teach | AskGoto | Goto) for a in done):
+                            # The rest was typed before the question (or the move) was on
+                            # screen: it must not answer it, nor jog during the move.
+                            break
                     actions += self.pad.tick(now)
                     if not all(self.apply(a) for a in actions):
                         return
+                    if any(isinstance(a, AskTeach | Teach | AskGoto) for a in actions):
+                        # Anything typed during a question's reads or a store was typed
+                        # before the question or its outcome was on screen.
+                        flush_input(reader)
             finally:
                 self.close()
 
     def close(self) -> None:
-        """Stop any jog, then send BG whatever state we think we are in."""
+        """Stop any jog and any goto, then send BG whatever state we think we are in."""
         try:
             self._jog.close()
         finally:
-            self.client.execute(JogStop(self.view.channel))
+            try:
+                self._stop_goto()
+            finally:
+                self.client.execute(JogStop(self.view.channel))
+
+
+def flush_input(reader: KeyReader) -> None:
+    """Drop the keys typed while the pad could not read them (a stall, a blocking action), so
+    that a key let go long ago never jogs the robot."""
+    if not reader.is_terminal():
+        return
+    # KeyReader (cli/keys.py) has no flush of its own; its descriptor is the one it reads.
+    with contextlib.suppress(OSError, ValueError, termios.error):
+        termios.tcflush(reader._fd, termios.TCIFLUSH)
 
 
 @click.command()
@@ -581,7 +742,13 @@ def jog(
     current_speed = session.send(ReadSpeed(channel))
     pad = JogPad(axes=axes, speed=current_speed, hold=hold, axis=min(axis, axes), motion=motion)
     pad.teaching = teach_file is not None
-    view = _View(channel, info.model, scara=info.robot_type is RobotType.SCARA)
+    view = _View(
+        channel,
+        info.model,
+        scara=info.robot_type is RobotType.SCARA,
+        target=session.banner(),
+        simulator=session.simulator,
+    )
     session.announce(f"Jog pad on channel {channel}: the robot moves while you hold a key.")
     runner = _PadRunner(session, pad, view, poll, teach_file)
     with reader.cbreak():

@@ -7,6 +7,7 @@ answer, and keeps trying; the last values stay on screen, dimmed.
 
 from __future__ import annotations
 
+import contextlib
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -151,8 +152,11 @@ def _clock(seconds: float) -> str:
     return datetime.fromtimestamp(seconds).strftime("%H:%M:%S")
 
 
-def render_sample(sampler: Sampler, sample: Sample, rate: float) -> RenderableType:
-    """The monitor's screen for one refresh."""
+def render_sample(
+    sampler: Sampler, sample: Sample, rate: float, target: str = "", simulator: bool = False
+) -> RenderableType:
+    """The monitor's screen for one refresh; ``target`` (the session's banner) goes in the
+    title, since the full screen hides the one printed on stderr."""
     failing = sample.error is not None
     shown = sampler.last if failing else sample
     parts: list[RenderableType] = []
@@ -182,7 +186,10 @@ def render_sample(sampler: Sampler, sample: Sample, rate: float) -> RenderableTy
         parts.append(Text(f"not available: {notes}", style="dim"))
     parts.append(Text(LEGEND, style="dim"))
     parts.append(Text("q leaves", style="dim"))
-    return Panel(Group(*parts), title="robostar monitor", border_style="red" if failing else "cyan")
+    title = Text("robostar monitor")
+    if target:
+        title.append("  ").append(target, style="bold magenta" if simulator else "bold")
+    return Panel(Group(*parts), title=title, border_style="red" if failing else "cyan")
 
 
 _LETTERS = "SOARPM"
@@ -294,15 +301,15 @@ def monitor(
             [ReadInfo(), ReadStatus(), *(ReadPosition(c) for c in chosen)],
             note="Repeated at every refresh, with CA, EF, ED, AB, GA and GB.",
         )
-    if session.settings.timeout is None:
-        session.client_options(timeout=MONITOR_TIMEOUT)
-    session.client_options(reconnect=True)
+    _client_options(session)
     kinds = {"pulse": PositionKind.PULSE, "angle": PositionKind.ANGLE, "xy": PositionKind.XY}
     sampler = Sampler(session.client.execute, chosen, port_list, kinds[kind])
+    # After the client is open: a served simulator is known only once it has answered AD.
+    show = partial(render_sample, target=session.banner(), simulator=session.simulator)
     period = 1.0 / rate
     reader = KeyReader()
     if session.out.json or not reader.is_terminal() or not session.out.console.is_terminal:
-        _print_samples(session, sampler, period, count, rate)
+        _print_samples(session, sampler, period, count, rate, show)
         return
     with (
         reader.cbreak(),
@@ -313,7 +320,7 @@ def monitor(
             started = time.monotonic()
             sample = sampler.sample()
             done += 1
-            live.update(render_sample(sampler, sample, rate), refresh=True)
+            live.update(show(sampler, sample, rate), refresh=True)
             try:
                 while (left := period - (time.monotonic() - started)) > 0:
                     if any(k in ("q", "Q", "esc", "ctrl-c") for k in reader.read(left)):
@@ -322,15 +329,32 @@ def monitor(
                 return
 
 
+def _client_options(session: Session) -> None:
+    """A short reply timeout (unless --timeout is given) and reconnecting, for a client the
+    monitor opens. In `robostar shell` the client is the shell's, open before this line ran,
+    and Session refuses options then (RuntimeError, its only one): `watch` keeps the shell's
+    timeout and connection rather than ending the shell."""
+    options: dict[str, Any] = {"reconnect": True}
+    if session.settings.timeout is None:
+        options["timeout"] = MONITOR_TIMEOUT
+    with contextlib.suppress(RuntimeError):
+        session.client_options(**options)
+
+
 def _print_samples(
-    session: Session, sampler: Sampler, period: float, count: int | None, rate: float
+    session: Session,
+    sampler: Sampler,
+    period: float,
+    count: int | None,
+    rate: float,
+    show: Callable[[Sampler, Sample, float], RenderableType],
 ) -> None:
     done = 0
     while count is None or done < count:
         started = time.monotonic()
         sample = sampler.sample()
         done += 1
-        session.out.result(sample.as_json(), partial(render_sample, sampler, sample, rate))
+        session.out.result(sample.as_json(), partial(show, sampler, sample, rate))
         if count is not None and done >= count:
             break
         time.sleep(max(0.0, period - (time.monotonic() - started)))

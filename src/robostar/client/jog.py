@@ -7,6 +7,12 @@ exception (Ctrl-C included); at interpreter exit for jogs still running; and on 
 keepalives stop at once (so the controller stops the robot within 500 ms) before the previous
 handler runs - by default Python's exit, as :class:`SystemExit`, so ``with`` blocks and exit
 handlers still send BG.
+
+A jog may also carry a dead-man's switch, ``held_until``: a callable giving the
+:func:`time.monotonic` time until which the jog is wanted (a jog pad's key-hold deadline). The
+keepalive itself stops sending BF once that time passes, and sends BG, so the robot stops even
+when the code that should end the jog is stuck (a screen write blocked by Ctrl-S or a backed-up
+SSH session).
 """
 
 from __future__ import annotations
@@ -14,6 +20,7 @@ from __future__ import annotations
 import asyncio
 import atexit
 import contextlib
+import math
 import signal
 import threading
 import time
@@ -96,11 +103,18 @@ _registry = _Registry()
 class _JogBase:
     """What both jogs keep, and how a ``with`` block around one ends."""
 
-    def __init__(self, start: JogStart, interval: float) -> None:
+    def __init__(
+        self, start: JogStart, interval: float, held_until: Callable[[], float] | None = None
+    ) -> None:
         self.command = start
         self.interval = interval
+        self.held_until = held_until
+        """The dead-man's switch: a callable giving the monotonic time until which the jog is
+        wanted, read before every keepalive; None keeps the jog alive until it is stopped."""
         self.error: BaseException | None = None
         """Why the keepalive failed, if it did (the controller has stopped the jog)."""
+        self.expired = False
+        """True once ``held_until`` passed: the keepalives stopped and BG was tried."""
         self._running = False
 
     @property
@@ -110,6 +124,28 @@ class _JogBase:
     def _next_due(self, due: float) -> float:
         # Fixed rate from the schedule; after a late keepalive, the next goes at once.
         return max(due + self.interval, time.monotonic())
+
+    def _deadline(self) -> float:
+        """The hold deadline (infinite without a switch); a switch that fails reads as let
+        go, since a jog must never outlive the code that holds it."""
+        if self.held_until is None:
+            return math.inf
+        try:
+            return float(self.held_until())
+        except Exception:
+            return -math.inf
+
+    def _wake(self, due: float) -> float:
+        """Seconds until the next keepalive is due, or sooner: until the hold deadline, so
+        that BG goes out when it passes rather than up to an interval later."""
+        return max(min(due, self._deadline()) - time.monotonic(), 0.0)
+
+    def _released(self) -> bool:
+        """The dead-man's switch let go: BF must stop (the caller no longer wants the jog)."""
+        if time.monotonic() < self._deadline():  # False for a NaN too: it lets go
+            return False
+        self.expired = True
+        return True
 
     def _ended(self, exc: BaseException | None, stop_error: Exception | None) -> None:
         """After BG at the end of a ``with`` block: raise what the caller must hear of.
@@ -142,15 +178,26 @@ class _JogBase:
 
 
 class Jog(_JogBase):
-    """A running jog on a blocking client; use it in a ``with`` block (or start()/stop())."""
+    """A running jog on a blocking client; use it in a ``with`` block (or start()/stop()).
+
+    ``held_until``, when given, is the dead-man's switch: a callable returning the
+    :func:`time.monotonic` time until which the jog is wanted. The keepalive thread reads it
+    before every BF; once that time has passed it sends no more BF, sends BG (a failure of that
+    BG is ignored: without BF the controller stops the jog within 500 ms anyway), sets
+    :attr:`expired` and ends. A caller that keeps the jog going extends the time it returns; one
+    that hangs stops extending it, and the robot stops. None (the default) keeps the jog alive
+    until it is stopped, as before.
+    """
 
     def __init__(
         self,
         call: Callable[[Command[None]], None],
         start: JogStart,
         interval: float,
+        *,
+        held_until: Callable[[], float] | None = None,
     ) -> None:
-        super().__init__(start, interval)
+        super().__init__(start, interval, held_until)
         self._call = call
         self._halted = threading.Event()
         self._thread: threading.Thread | None = None
@@ -185,7 +232,14 @@ class Jog(_JogBase):
     def _keepalive(self) -> None:
         keep = JogContinue(self.command.channel)
         due = time.monotonic() + self.interval
-        while not self._halted.wait(max(due - time.monotonic(), 0.0)):
+        while not self._halted.wait(self._wake(due)):
+            if self._released():
+                # Nobody is holding the jog: stop it here, not in the caller, which may hang.
+                with contextlib.suppress(Exception):
+                    self._call(JogStop(self.command.channel))
+                return
+            if time.monotonic() < due:
+                continue  # woken for the deadline, which has been extended meanwhile
             try:
                 self._call(keep)
             except BaseException as exc:  # reported by __exit__
@@ -212,15 +266,21 @@ class Jog(_JogBase):
 
 
 class AsyncJog(_JogBase):
-    """A running jog on an asyncio client; use it in an ``async with`` block."""
+    """A running jog on an asyncio client; use it in an ``async with`` block.
+
+    ``held_until`` is the same dead-man's switch as :class:`Jog`'s (read by the keepalive
+    task); None, the default, keeps the jog alive until it is stopped.
+    """
 
     def __init__(
         self,
         call: Callable[[Command[None]], Awaitable[None]],
         start: JogStart,
         interval: float,
+        *,
+        held_until: Callable[[], float] | None = None,
     ) -> None:
-        super().__init__(start, interval)
+        super().__init__(start, interval, held_until)
         self._call = call
         self._halted = asyncio.Event()
         self._task: asyncio.Task[None] | None = None
@@ -254,10 +314,16 @@ class AsyncJog(_JogBase):
         due = time.monotonic() + self.interval
         while True:
             with contextlib.suppress(TimeoutError):
-                async with asyncio.timeout(max(due - time.monotonic(), 0.0)):
+                async with asyncio.timeout(self._wake(due)):
                     await self._halted.wait()
             if self._halted.is_set():
                 return
+            if self._released():
+                with contextlib.suppress(Exception):
+                    await self._call(JogStop(self.command.channel))
+                return
+            if time.monotonic() < due:
+                continue  # woken for the deadline, which has been extended meanwhile
             try:
                 await self._call(keep)
             except Exception as exc:  # reported by __aexit__

@@ -1,0 +1,112 @@
+"""The jog's dead-man's switch (``held_until``): once the time it gives has passed, the keepalive
+itself stops sending BF and sends BG, so a jog ends even when the code that should end it hangs
+(the jog pad's screen write blocked by Ctrl-S). Without a switch a jog runs until stopped."""
+
+from __future__ import annotations
+
+import asyncio
+import time
+
+import pytest
+
+from robostar.client import AsyncClient, Client
+from robostar.sim import VirtualController
+from robostar.transport import AsyncPeerTransport, PeerTransport
+
+from .conftest import sim_config
+from .test_jog import Arrivals
+
+pytestmark = pytest.mark.timeout(60)
+
+
+@pytest.fixture
+def controller() -> VirtualController:
+    return VirtualController(sim_config(speedup=5.0))
+
+
+def _after(arrivals: Arrivals, start: float, code: str) -> list[float]:
+    return [t - start for t, c in arrivals.times if c == code and t >= start]
+
+
+def test_a_jog_whose_hold_passes_stops_itself_while_the_body_hangs(
+    controller: VirtualController,
+) -> None:
+    arrivals = Arrivals(controller)
+    with Client(PeerTransport(arrivals), timeout=1.0) as client:
+        started = time.monotonic()
+        with client.jog(1, 1, "+") as jog:
+            jog.held_until = lambda: started + 0.3
+            time.sleep(1.2)  # the caller is stuck well past the hold: nobody stops the jog
+            assert jog.expired
+            assert not client.status()[0].running  # stopped before the block ends
+        assert jog.error is None
+    bfs = _after(arrivals, started, "BF")
+    bgs = _after(arrivals, started, "BG")
+    assert len(bgs) == 2, bgs  # the switch's BG, then the block's own
+    assert bfs and max(bfs) < bgs[0], (bfs, bgs)  # no BF once the switch let go
+    assert 0.3 <= bgs[0] < 0.3 + 0.3, bgs  # at the deadline, well before the body ends
+
+
+def test_a_switch_given_at_construction_is_kept(controller: VirtualController) -> None:
+    from robostar.client.jog import Jog, jog_start
+
+    with Client(PeerTransport(controller), timeout=1.0) as client:
+        started = time.monotonic()
+        jog = Jog(
+            client._urgent_call, jog_start(1, 1, "+", "joint"), 0.2, held_until=lambda: started
+        )
+        with jog:
+            time.sleep(0.3)
+            assert jog.expired
+        assert controller.executions["BG"] == 2
+
+
+def test_a_hold_that_keeps_being_extended_keeps_the_jog_alive(
+    controller: VirtualController,
+) -> None:
+    arrivals = Arrivals(controller)
+    with Client(PeerTransport(arrivals), timeout=1.0) as client:
+        held = [time.monotonic() + 0.5]
+        with client.jog(1, 1, "+") as jog:
+            jog.held_until = lambda: held[0]
+            end = time.monotonic() + 1.5
+            while time.monotonic() < end:  # key repeats, each holding it 0.5 s more
+                held[0] = time.monotonic() + 0.5
+                time.sleep(0.04)
+            assert not jog.expired
+            assert client.status()[0].running
+    gaps = arrivals.keepalive_gaps()
+    assert len(gaps) >= 5
+    assert max(gaps) < 0.4, gaps
+    assert arrivals.count("BG") == 1
+
+
+def test_a_switch_that_fails_lets_go(controller: VirtualController) -> None:
+    def broken() -> float:
+        raise RuntimeError("the pad's state is gone")
+
+    with Client(PeerTransport(controller), timeout=1.0) as client, client.jog(1, 1, "+") as jog:
+        jog.held_until = broken
+        time.sleep(0.5)
+        assert jog.expired
+        assert not client.status()[0].running
+
+
+def test_async_jog_honours_the_switch_too(controller: VirtualController) -> None:
+    arrivals = Arrivals(controller)
+
+    async def main() -> None:
+        async with AsyncClient(AsyncPeerTransport(arrivals), timeout=1.0) as client:
+            started = time.monotonic()
+            async with client.jog(1, 1, "+") as jog:
+                jog.held_until = lambda: started + 0.3
+                await asyncio.sleep(1.0)  # awaiting something else, past the hold
+                assert jog.expired
+                assert not (await client.status())[0].running
+            assert jog.error is None
+        bfs = _after(arrivals, started, "BF")
+        bgs = _after(arrivals, started, "BG")
+        assert bfs and bgs and max(bfs) < bgs[0], (bfs, bgs)
+
+    asyncio.run(main())
+    assert arrivals.count("BG") == 2
