@@ -33,6 +33,7 @@ from robostar.serve.lease import LeaseHeldError, Who
 from robostar.serve.line import Line
 from robostar.serving import AsyncHost, Backend, Refusal, Request, Session
 from robostar.serving.address import warn_remote
+from robostar.serving.aio import HostLimits
 
 if TYPE_CHECKING:
     from robostar.serve.server import LineServer
@@ -243,8 +244,10 @@ class N1Face:
         *,
         ssl_context: ssl.SSLContext | None = None,
         allow_from: Sequence[object] | None = None,
+        limits: HostLimits | None = None,
     ) -> None:
         self.server = server
+        self.limits = limits or HostLimits()
         self.listens = dict(listens)
         self.allow_remote = allow_remote
         self.ssl_context = ssl_context
@@ -268,7 +271,12 @@ class N1Face:
         def factory(conn: str) -> Session:
             return backend.session(conn, timeout)
 
-        n1 = AsyncHost(factory, name=f"n1 {name}")
+        n1 = AsyncHost(
+            factory,
+            name=f"n1 {name}",
+            max_clients=self.limits.max_clients,
+            idle_timeout=self.limits.idle_timeout,
+        )
         self.addresses[name] = await n1.start(
             host,
             port,

@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Any
 from robostar.errors import UsageError
 from robostar.serve.n1serve import N1Face
 from robostar.serving import is_loopback, parse_listen
-from robostar.serving.aio import parse_networks
+from robostar.serving.aio import HostLimits, parse_networks
 
 if TYPE_CHECKING:
     from robostar.serve.server import LineServer
@@ -25,7 +25,17 @@ if TYPE_CHECKING:
 __all__ = ["N1Face", "create", "mutual_tls_context"]
 
 _OPTIONS = frozenset(
-    ("lines", "allow_remote", "token", "allow_from", "tls_cert", "tls_key", "client_ca")
+    (
+        "lines",
+        "allow_remote",
+        "token",
+        "allow_from",
+        "tls_cert",
+        "tls_key",
+        "client_ca",
+        "max_clients",
+        "idle_timeout",
+    )
 )
 
 
@@ -43,7 +53,8 @@ def mutual_tls_context(cert: str, key: str, client_ca: str) -> ssl.SSLContext:
 
 def create(server: LineServer, options: Mapping[str, Any]) -> N1Face:
     """``options``: ``{"lines": {NAME: "HOST:PORT"}, "allow_remote": bool, "allow_from": [...],
-    "tls_cert": PATH, "tls_key": PATH, "client_ca": PATH}``."""
+    "tls_cert": PATH, "tls_key": PATH, "client_ca": PATH, "max_clients": N (16),
+    "idle_timeout": SECONDS (600; 0 never)}``."""
     unknown = sorted(set(options) - _OPTIONS)
     if unknown:
         raise UsageError(
@@ -80,4 +91,5 @@ def create(server: LineServer, options: Mapping[str, Any]) -> N1Face:
         bool(options.get("allow_remote", False)),
         ssl_context=context,
         allow_from=networks,
+        limits=HostLimits.from_options(options, "n1"),
     )
