@@ -110,3 +110,30 @@ def test_async_jog_honours_the_switch_too(controller: VirtualController) -> None
 
     asyncio.run(main())
     assert arrivals.count("BG") == 2
+
+
+def test_client_jog_takes_the_switch(controller: VirtualController) -> None:
+    # Client.jog(held_until=...) hands the switch to its Jog (as the jog pad does).
+    arrivals = Arrivals(controller)
+    with Client(PeerTransport(arrivals), timeout=1.0) as client:
+        started = time.monotonic()
+        with client.jog(1, 1, "+", held_until=lambda: started + 0.3) as jog:
+            time.sleep(0.9)
+            assert jog.expired
+    assert _after(arrivals, started, "BG")
+
+
+def test_async_client_jog_takes_the_switch() -> None:
+    import asyncio
+
+    from robostar import AsyncClient
+
+    async def main() -> None:
+        async with AsyncClient("sim://") as client:
+            started = time.monotonic()
+            async with client.jog(1, 1, "+", held_until=lambda: started + 0.3) as jog:
+                await asyncio.sleep(0.9)
+                assert jog.expired
+            assert not (await client.status())[0].running
+
+    asyncio.run(main())

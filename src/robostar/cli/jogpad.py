@@ -383,12 +383,15 @@ class _PadRunner:
         try:
             if isinstance(action, StartJog):
                 direction = "+" if action.direction is JogDirection.PLUS else "-"
-                jog = self.client.jog(
-                    channel, action.axis, action.direction, motion=self.pad.motion
-                )
                 # The dead-man's switch: the keepalive stops the jog by itself if this loop
                 # hangs past the key-hold deadline (it cannot stop it while stuck).
-                jog.held_until = self._hold_deadline
+                jog = self.client.jog(
+                    channel,
+                    action.axis,
+                    action.direction,
+                    motion=self.pad.motion,
+                    held_until=self._hold_deadline,
+                )
                 self._running = self._jog.enter_context(jog)
                 self.pad.jogging = action.direction  # it runs, whatever failed before it
                 self.view.message = Text(f"jogging axis {action.axis} {direction}", "yellow")

@@ -6,6 +6,7 @@ import asyncio
 import contextlib
 import time
 import weakref
+from collections.abc import Callable
 from types import TracebackType
 from typing import Any, Self, TypeVar, cast
 
@@ -231,16 +232,18 @@ class AsyncClient(AsyncOperations, ClientBase):
         *,
         motion: str | MotionType = "joint",
         interval: float | None = None,
+        held_until: Callable[[], float] | None = None,
     ) -> AsyncJog:
         """BE, BF every ``interval`` s from a task, BG at the end.
 
-        Use as ``async with client.jog(1, axis=1, direction="+"): ...``.
+        Use as ``async with client.jog(1, axis=1, direction="+"): ...``. ``held_until``: the
+        dead-man's switch, as :meth:`Client.jog <robostar.Client.jog>`'s.
         """
         start = jog_start(channel, axis, direction, motion)
         every = (
             self.settings.keepalive if interval is None else check_keepalive(interval, "interval")
         )
-        jog = AsyncJog(self._urgent_call, start, every)
+        jog = AsyncJog(self._urgent_call, start, every, held_until=held_until)
         self._jogs.add(jog)
         return jog
 

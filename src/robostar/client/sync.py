@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import time
 import weakref
+from collections.abc import Callable
 from types import TracebackType
 from typing import Any, Self, TypeVar, cast
 
@@ -231,17 +232,20 @@ class Client(SyncOperations, ClientBase):
         *,
         motion: str | MotionType = "joint",
         interval: float | None = None,
+        held_until: Callable[[], float] | None = None,
     ) -> Jog:
         """BE, BF every ``interval`` s (the client's ``keepalive``), BG at the end.
 
         Use as ``with client.jog(1, axis=1, direction="+"): ...``. ``direction`` is "+"/"-"
-        (or 1/-1); ``motion`` "joint" or "linear".
+        (or 1/-1); ``motion`` "joint" or "linear". ``held_until``: a dead-man's switch, a
+        callable giving the ``time.monotonic()`` until which the jog is wanted; once it has
+        passed, the keepalive sends BG by itself (see :class:`~robostar.client.jog.Jog`).
         """
         start = jog_start(channel, axis, direction, motion)
         every = (
             self.settings.keepalive if interval is None else check_keepalive(interval, "interval")
         )
-        jog = Jog(self._urgent_call, start, every)
+        jog = Jog(self._urgent_call, start, every, held_until=held_until)
         self._jogs.add(jog)
         return jog
 
