@@ -9,6 +9,7 @@ import os
 import signal
 import sys
 import time
+import urllib.parse
 from typing import Any
 
 import click
@@ -111,10 +112,23 @@ def _check_faces(config: ServeConfig) -> None:
         create_face(name, server, options)
 
 
+def without_password(url: str) -> str:
+    """``url`` with the password of its user part (``mqtt://user:secret@host``) shown as
+    ``***``: the start's summary goes to the service's journal, where no secret belongs."""
+    parts = urllib.parse.urlsplit(url)
+    if parts.password is None:
+        return url
+    user = parts.username or ""
+    host = parts.netloc.rpartition("@")[2]
+    return urllib.parse.urlunsplit(parts._replace(netloc=f"{user}:***@{host}"))
+
+
 def _describe(config: ServeConfig) -> list[str]:
     out = [f"line {lc.name}: {lc.url} (poll every {lc.poll_interval:g} s)" for lc in config.lines]
     for name, options in config.faces.items():
         where = options.get("listen") or options.get("url") or options.get("lines")
+        if isinstance(where, str):
+            where = without_password(where)
         out.append(f"face {name}: {where}")
     if config.audit_path:
         out.append(f"audit log: {config.audit_path}")

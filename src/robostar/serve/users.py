@@ -24,7 +24,7 @@ from argon2.exceptions import InvalidHashError, VerificationError, VerifyMismatc
 
 from robostar.errors import UsageError
 
-__all__ = ["LoginLimiter", "Role", "User", "UserStore", "hash_password"]
+__all__ = ["MAX_NAME", "LoginLimiter", "Role", "User", "UserStore", "hash_password", "shown"]
 
 _HASHER = PasswordHasher()
 MIN_PASSWORD = 8
@@ -65,11 +65,22 @@ def hash_password(password: str) -> str:
     return _HASHER.hash(password)
 
 
+MAX_NAME = 64
+"""The longest user name: a sign-in with a longer one is refused before any check, since no
+such user can exist (a 4 MiB name was logged, and kept by the limiter, whole)."""
+
+
+def shown(name: str) -> str:
+    """A user name as logs and the limiter keep it: a name longer than any user's is cut (with
+    its length), so a hostile sign-in cannot fill the log or the memory with one."""
+    return name if len(name) <= MAX_NAME else f"{name[:MAX_NAME]}... ({len(name)} characters)"
+
+
 def _check_name(name: str) -> str:
     if not name or not name.replace("-", "").replace("_", "").replace(".", "").isalnum():
         raise UsageError(f"user name: {name!r} may hold letters, digits, '-', '_' and '.' only")
-    if len(name) > 64:
-        raise UsageError("user name: at most 64 characters")
+    if len(name) > MAX_NAME:
+        raise UsageError(f"user name: at most {MAX_NAME} characters")
     return name
 
 
@@ -199,7 +210,7 @@ class LoginLimiter:
     def blocked_for(self, address: str, now: float | None = None) -> float:
         """Seconds until ``address`` may try again (0: now)."""
         now = self._clock() if now is None else now
-        failures = self._failures.get(address)
+        failures = self._failures.get(shown(address))
         if not failures:
             return 0.0
         while failures and now - failures[0] > self.window:
@@ -210,13 +221,14 @@ class LoginLimiter:
 
     def failed(self, address: str, now: float | None = None) -> None:
         now = self._clock() if now is None else now
-        self._failures.setdefault(address, deque()).append(now)
+        # keyed by the shown form: 10,000 keys stay small whatever the names tried
+        self._failures.setdefault(shown(address), deque()).append(now)
         if len(self._failures) > 10_000:  # bounded: forget the oldest addresses
             for stale in list(self._failures)[:5_000]:
                 del self._failures[stale]
 
     def succeeded(self, address: str) -> None:
-        self._failures.pop(address, None)
+        self._failures.pop(shown(address), None)
 
 
 @functools.cache

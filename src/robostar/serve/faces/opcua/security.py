@@ -33,7 +33,7 @@ from cryptography.x509.oid import ExtendedKeyUsageOID
 
 from robostar.serve.faces.opcua._ua import ObjectIds, node_id
 from robostar.serve.ratelimit import TokenBucket
-from robostar.serve.users import LoginLimiter, Role, UserStore
+from robostar.serve.users import MAX_NAME, LoginLimiter, Role, UserStore, shown
 
 __all__ = [
     "Caller",
@@ -173,24 +173,29 @@ class UsersManager:
             return User(role=UserRole.Anonymous) if self.allow_anonymous else None
         if password is None:
             return None
+        name = shown(username)  # what the log says: a hostile name is cut, not written whole
+        if len(username) > MAX_NAME:
+            # no user has such a name: refused before the limiter or the budget keep it
+            log.warning("opcua: sign-in of %r refused: no user has so long a name", name)
+            return None
         if not certificate:
             # an unsigned channel (no peer certificate: None, or b"" as asyncua has it): a
             # password never crosses one, whatever the client offers
-            log.warning("opcua: sign-in of %r refused: not over an unsigned channel", username)
+            log.warning("opcua: sign-in of %r refused: not over an unsigned channel", name)
             return None
         self.users.refresh()
         wait = self.limiter.blocked_for(username)
         if wait > 0:  # before the budget: a name held off costs no password check
-            log.warning("opcua: sign-in of %r refused: too many failures (%.0f s)", username, wait)
+            log.warning("opcua: sign-in of %r refused: too many failures (%.0f s)", name, wait)
             return None
         if not self.budget.take():
-            log.warning("opcua: sign-in of %r refused: too many sign-ins at once", username)
+            log.warning("opcua: sign-in of %r refused: too many sign-ins at once", name)
             return None
         # argon2 takes tens of milliseconds, once per session activation
         user = self.users.verify(username, password)
         if user is None:
             self.limiter.failed(username)
-            log.warning("opcua: sign-in refused for %r", username)
+            log.warning("opcua: sign-in refused for %r", name)
             return None
         self.limiter.succeeded(username)
         return User(role=UserRole.User, name=user.name)

@@ -1,5 +1,6 @@
-"""`robostar serve` keeps an audit log unless told not to: everything that moves a robot or
-writes to it is recorded by default (the user's state folder), and turning it off is said."""
+"""What `robostar serve` starts with: an audit log unless told not to (everything that moves a
+robot or writes to it is recorded by default, in the user's state folder; turning it off is
+said), and a summary that never shows a secret."""
 
 from __future__ import annotations
 
@@ -86,3 +87,15 @@ def test_robostar_serve_without_audit_options_records_a_write_in_the_default_fil
             proc.kill()
             proc.wait()
     assert "SetSpeed(channel=1, speed=44)" in path.read_text()
+
+
+def test_the_start_summary_never_shows_a_password_of_the_mqtt_url() -> None:
+    from robostar.cli.serve import without_password
+
+    faces = {"mqtt": "mqtt://cell3:S3cret-pw@127.0.0.1:1883?ca=/etc/ca.pem"}
+    config = build_config(None, ("cell1=sim://",), (), faces, False, None, None, True)
+    text = "\n".join(_describe(config))
+    assert "S3cret-pw" not in text and "mqtt://cell3:***@127.0.0.1:1883?ca=/etc/ca.pem" in text
+    assert without_password("mqtt://127.0.0.1:1883") == "mqtt://127.0.0.1:1883"
+    assert without_password("mqtt://ann@[::1]:1883") == "mqtt://ann@[::1]:1883"
+    assert without_password("mqtts://ann:p@ss@host:8883") == "mqtts://ann:***@host:8883"
