@@ -660,8 +660,10 @@ class Line:
                 continue
             except RobostarError as exc:
                 log.debug("line %s poll: %s", self.name, exc)
-                # the values are what they were, but nobody can vouch for them now
-                self.model.mark(Quality.STALE, only=Quality.GOOD)
+                # the values are what they were, but nobody can vouch for them now; "online"
+                # and "info" are the line's own, set as it opens or drops (a poll failing as
+                # the line dropped made its "online: false" stale)
+                self.model.age_out(math.inf, keep=_STEADY_KEYS)
             delay = self.config.poll_interval - (time.monotonic() - started)
             # asyncio.wait, not wait_for: on Python 3.11 wait_for can swallow a cancellation
             # that races with the event, and stop() would wait forever for the poller.
