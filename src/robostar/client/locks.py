@@ -48,9 +48,10 @@ class PriorityLock:
         finally:
             self.release()
 
-    def acquire(self, *, urgent: bool = False) -> None:
+    def acquire(self, urgent: bool = False) -> None:
         """Take the lock (an urgent caller ahead of ordinary waiters); pair with
-        :meth:`release`. :meth:`hold` does both."""
+        :meth:`release`. :meth:`hold` does both. (``urgent`` may be positional: every
+        exchange passes here, and a keyword costs more.)"""
         me = get_ident()
         if not self._urgent and self._line.acquire(False):
             self._owner = me

@@ -128,7 +128,7 @@ class Client(SyncOperations, ClientBase):
     ) -> R:
         """Run one command (its retries and KD follow-up included) while holding the line."""
         lock = self._lock
-        lock.acquire(urgent=urgent)
+        lock.acquire(urgent)
         try:
             if not self.transport.is_open:
                 self._ensure_open()

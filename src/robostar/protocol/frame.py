@@ -161,11 +161,14 @@ class FrameDecoder:
     and skipped to its end.
     """
 
-    __slots__ = ("_buf", "_state", "discarded")
+    __slots__ = ("_buf", "_state", "between_frames", "discarded")
 
     def __init__(self) -> None:
         self._buf = bytearray()
         self._state = _State.HUNT
+        self.between_frames = True
+        """No frame is begun: the next byte is read as a frame's start, a control byte or
+        noise. (Kept with the state, not computed: the usual read asks it every time.)"""
         self.discarded = 0
 
     @property
@@ -173,16 +176,11 @@ class FrameDecoder:
         """Bytes of an unfinished frame held for the next feed."""
         return len(self._buf)
 
-    @property
-    def between_frames(self) -> bool:
-        """No frame is begun: the next byte is read as a frame's start, a control byte or
-        noise."""
-        return self._state is _State.HUNT
-
     def reset(self) -> None:
         """Forget any unfinished frame (after RST, or when the line is reopened)."""
         self._buf.clear()
         self._state = _State.HUNT
+        self.between_frames = True
 
     def feed(self, data: bytes | bytearray | memoryview) -> list[FrameEvent]:
         """Take bytes from the line; return the events they complete, in order."""
@@ -284,4 +282,5 @@ class FrameDecoder:
                     self.discarded += n - i
                     i = n
         self._state = state
+        self.between_frames = state is _State.HUNT
         return events
