@@ -9,7 +9,12 @@
 - ``sim``: cProfile of the simulator's serving thread (in its own process) while the client
   polls AA over TCP;
 - ``syscalls``: ``strace -c`` of the blocking client and of the simulator over 1 000 AA
-  exchanges (skipped where strace is missing or not permitted).
+  exchanges (skipped where strace is missing or not permitted);
+- ``instructions``: machine instructions per ``Client.status()`` in memory, counted by
+  valgrind's callgrind (two runs of different lengths, the difference divided by the extra
+  calls, so start-up cancels out). A count, not a time: the same on a busy machine as on a
+  quiet one, so an A/B of a change to the client's path needs no quiet machine (skipped where
+  valgrind is missing).
 """
 
 from __future__ import annotations
@@ -193,11 +198,67 @@ def syscalls() -> str:
     return "".join(report)
 
 
+_STATUS_CALLS = """
+import sys
+from bench.host_cost import CannedPeer
+from bench.workload import STATUS
+from robostar import Client
+from robostar.commands.status import ReadStatus
+from robostar.protocol.frame import encode_packet
+from robostar.transport import PeerTransport
+answer = encode_packet(ReadStatus().encode_answer(STATUS)[0])
+with Client(PeerTransport(CannedPeer(answer))) as c:
+    for _ in range(int(sys.argv[1])):
+        c.status()
+"""
+
+
+def _instructions_run(calls: int) -> int:
+    """Instructions callgrind counts for a process making ``calls`` in-memory status reads."""
+    done = subprocess.run(
+        [
+            "valgrind",
+            "--tool=callgrind",
+            "--callgrind-out-file=/dev/null",
+            sys.executable,
+            "-c",
+            _STATUS_CALLS,
+            str(calls),
+        ],
+        cwd=REPO,
+        env={
+            **os.environ,
+            "PYTHONPATH": os.pathsep.join((str(REPO), str(REPO / "src"))),
+            "PYTHONHASHSEED": "0",  # the same dictionaries' layout in every run
+        },
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    for line in done.stderr.splitlines():
+        if "Collected :" in line:
+            return int(line.rsplit(":", 1)[1])
+    raise RuntimeError(f"callgrind gave no count:\n{done.stderr[-2000:]}")
+
+
+def instructions() -> str:
+    if shutil.which("valgrind") is None:
+        return "valgrind not found: skipped\n"
+    short, long = 2_000, 12_000
+    per_call = (_instructions_run(long) - _instructions_run(short)) / (long - short)
+    return (
+        "Client.status() in memory (canned peer), counted by callgrind\n"
+        f"{per_call:,.0f} instructions per call"
+        f" ({long:,} calls less {short:,}, start-up cancelled out)\n"
+    )
+
+
 PROFILES: dict[str, Callable[[], str]] = {
     "client": client,
     "async": async_client,
     "sim": sim,
     "syscalls": syscalls,
+    "instructions": instructions,
 }
 
 
