@@ -21,9 +21,8 @@ import asyncio
 import logging
 import ssl
 from collections.abc import Callable, Mapping, Sequence
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
-from robostar.commands.base import Command
 from robostar.commands.files import UploadFile
 from robostar.commands.system import ReadLastError
 from robostar.errors import ControllerError, OutcomeUnknownError, RobostarError
@@ -113,30 +112,20 @@ class LineBackend(Backend):
 
     def session(self, name: str, timeout: float) -> Session:
         """A new N1 session on this backend (one per connection)."""
-        hooks = _SessionHooks(self)
-        session = _LineSession(hooks, name=name, timeout=timeout)
-        hooks.session = session
+        session = _LineSession(self, name=name, timeout=timeout)
         session.on_abandoned = lambda: self._withdraw(
             session, "the host gave the exchange up (an RST or a new request)"
         )
         return session
 
-    def begin_upload(self, command: UploadFile, session: Session | None = None) -> None:
+    def begin_upload(self, session: Session, command: UploadFile) -> None:
         """Refuse an FB before its lines are sent when another consumer, another N1 session
-        included, holds the lease (``session``: the one uploading)."""
+        included, holds the lease."""
         holder = self.line.lease.holder
-        if holder is None:
-            return  # free: the upload takes it when it is carried out
-        if session is None:
-            # serving's own hook does not say which session (see _SessionHooks): let an N1
-            # holder through, and the lease is checked when the upload is carried out
-            if holder.who.face == "n1":
-                return
-        elif holder.who == self.who(session):
-            return
+        if holder is None or holder.who == self.who(session):
+            return  # free (the upload takes it when it is carried out), or this session's
         error = LeaseHeldError(self.line.name, holder)
-        if session is not None:
-            self.line.record(command, self.who(session), f"refused: {error}")
+        self.line.record(command, self.who(session), f"refused: {error}")
         raise Refusal(str(error), _FLAG_FAILED)
 
     def session_closed(self, session: Session) -> None:
@@ -206,31 +195,6 @@ def _moves_on(frame: FrameEvent) -> bool:
     return isinstance(frame, Packet) or (
         isinstance(frame, Control) and frame.kind is ControlKind.RST
     )
-
-
-class _SessionHooks(Backend):
-    """A :class:`LineBackend` as one session sees it. serving calls ``begin_upload`` without
-    saying which session uploads; this per-session face of the shared backend passes it on, so
-    that an FB from a session other than the lease holder is refused before its lines."""
-
-    def __init__(self, backend: LineBackend) -> None:
-        self.backend = backend
-        self.session: Session | None = None
-
-    def handle(self, request: Request) -> None:
-        self.backend.handle(request)
-
-    def begin_upload(self, command: UploadFile) -> None:
-        self.backend.begin_upload(command, self.session)
-
-    def note_error(self, session: Session, text: str) -> None:
-        self.backend.note_error(session, text)
-
-    def session_closed(self, session: Session) -> None:
-        self.backend.session_closed(session)
-
-    def dress_answer(self, command: Command[Any], packets: list[bytes]) -> list[bytes]:
-        return self.backend.dress_answer(command, packets)
 
 
 class N1Face:

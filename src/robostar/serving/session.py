@@ -144,8 +144,9 @@ class Backend:
         """Act on ``request`` and answer it now or later (raising :class:`Refusal` refuses)."""
         raise NotImplementedError
 
-    def begin_upload(self, command: UploadFile) -> None:
-        """FB arrived (no lines yet): raise :class:`Refusal` to refuse before the lines."""
+    def begin_upload(self, session: Session, command: UploadFile) -> None:
+        """FB arrived in ``session`` (no lines yet): raise :class:`Refusal` to refuse before the
+        lines (the session says who uploads: one backend serves many)."""
 
     def note_error(self, session: Session, text: str) -> None:
         """A refusal or a line error in ``session``: the text KD is to report."""
@@ -324,7 +325,7 @@ class Session:
         self.current = request
         try:
             if isinstance(command, UploadFile):
-                self.backend.begin_upload(command)
+                self.backend.begin_upload(self, command)
                 self._upload = _Upload(request, [])
                 self._send([command.ok()], After.UPLOAD)
             else:

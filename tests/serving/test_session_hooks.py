@@ -1,0 +1,72 @@
+"""The hooks a backend has into its sessions, on serving's Session itself (no host, no line): who
+uploads (``begin_upload`` is given the session), ending an exchange with RST
+(``Request.abort``), and hearing at once that the host gave an exchange up
+(``exchange_abandoned``). A backend serves many sessions, and these are what the line server
+needs of them (it once reached into the session for each)."""
+
+from __future__ import annotations
+
+from robostar.commands.control import SetSpeed
+from robostar.commands.files import UploadFile
+from robostar.commands.status import ReadStatus
+from robostar.protocol.fields import FLAG_FAILED
+from robostar.protocol.frame import ACK, NAK, RST, encode_packet
+from robostar.serving import Backend, Refusal, Request, Session
+
+ACK_B = bytes((ACK,))
+NAK_B = bytes((NAK,))
+RST_B = bytes((RST,))
+FB = UploadFile(1, "A.JOB", 2, ("MAIN", "EOP"))
+
+
+def _request(command: SetSpeed | ReadStatus | UploadFile) -> bytes:
+    return encode_packet(command.encode())
+
+
+class Keeper(Backend):
+    """Keeps every request unanswered (as a backend whose work is queued), and notes each hook."""
+
+    def __init__(self, uploader: Session | None = None) -> None:
+        self.requests: list[Request] = []
+        self.uploads: list[tuple[Session, UploadFile]] = []
+        self.abandoned: list[tuple[Session, Request]] = []
+        self.uploader = uploader
+        """The only session allowed to upload (None: any)."""
+
+    def handle(self, request: Request) -> None:
+        self.requests.append(request)
+
+    def begin_upload(self, session: Session, command: UploadFile) -> None:
+        self.uploads.append((session, command))
+        if self.uploader is not None and session is not self.uploader:
+            raise Refusal(f"only {self.uploader.name} uploads here", FLAG_FAILED)
+
+    def exchange_abandoned(self, session: Session, request: Request) -> None:
+        self.abandoned.append((session, request))
+
+
+def _session(backend: Backend, name: str) -> tuple[Session, list[int]]:
+    session = Session(backend, name=name)
+    woken: list[int] = []
+    session.on_ready = lambda: woken.append(1)
+    return session, woken
+
+
+# -- begin_upload(session, command) ------------------------------------------------------------
+def test_begin_upload_is_told_which_of_the_backends_sessions_uploads() -> None:
+    backend = Keeper()
+    a, _ = _session(backend, "a")
+    b, _ = _session(backend, "b")
+    backend.uploader = a
+    b.receive_data(_request(FB), 0.0)
+    a.receive_data(_request(FB), 0.0)
+    assert [(session.name, command.file) for session, command in backend.uploads] == [
+        ("b", FB.file),
+        ("a", FB.file),
+    ]
+    # b is refused before its lines, with the backend's reason for KD; a may send its lines
+    assert b.data_to_send(0.0) == encode_packet(FB.error_answer(FLAG_FAILED))
+    assert b.last_error == "only a uploads here"
+    assert b.current is None
+    assert a.data_to_send(0.0) == encode_packet(FB.ok())
+    assert a.last_error == ""
