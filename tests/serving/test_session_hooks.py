@@ -70,3 +70,45 @@ def test_begin_upload_is_told_which_of_the_backends_sessions_uploads() -> None:
     assert b.current is None
     assert a.data_to_send(0.0) == encode_packet(FB.ok())
     assert a.last_error == ""
+
+
+# -- Request.abort(reason) ---------------------------------------------------------------------
+def test_abort_ends_the_exchange_with_rst_at_once_and_kd_says_why() -> None:
+    backend = Keeper()
+    session, woken = _session(backend, "h1")
+    session.receive_data(_request(SetSpeed(1, 5)), 0.0)
+    assert session.data_to_send(0.0) == b""
+    (request,) = backend.requests
+    request.abort("the outcome is unknown")
+    assert woken  # the host is asked for a turn now, not at the host's next input
+    assert session.data_to_send(0.1) == RST_B
+    assert not request.live
+    assert session.current is None  # dropped, as any exchange the link gave up
+    assert session.last_error == "the outcome is unknown"  # not the link's "aborted" text
+    # the session goes on: the host's next request is handed over as ever
+    session.receive_data(_request(ReadStatus()), 0.2)
+    assert len(backend.requests) == 2 and backend.requests[1].live
+
+
+def test_abort_in_the_backends_own_call_goes_out_with_the_same_turn() -> None:
+    class Aborts(Backend):
+        def handle(self, request: Request) -> None:
+            request.abort("cannot say")
+
+    session, _ = _session(Aborts(), "h1")
+    session.receive_data(_request(SetSpeed(1, 5)), 0.0)
+    assert session.data_to_send(0.0) == RST_B
+    assert session.last_error == "cannot say"
+
+
+def test_abort_sends_nothing_once_the_exchange_is_over() -> None:
+    backend = Keeper()
+    session, _ = _session(backend, "h1")
+    session.receive_data(_request(SetSpeed(1, 5)), 0.0)
+    first = backend.requests[0]
+    session.receive_data(RST_B, 0.1)  # the host gives up...
+    first.answer()  # ...and the answer that follows is not sent: the exchange ends
+    assert session.data_to_send(0.2) == b""
+    first.abort("too late")
+    assert session.data_to_send(0.3) == b""
+    assert session.last_error != "too late"

@@ -84,11 +84,8 @@ class LineBackend(Backend):
             # not 0x32: "failed" would tell the host that nothing happened. A controller that
             # cannot say ends the exchange (RST); the host's link then reports the outcome as
             # unknown (robostar's client: OutcomeUnknownError), and KD says why.
-            session = request.session
-            if isinstance(session, _LineSession):
-                session.abort_exchange(request, f"line server: {exc}")
-            else:  # a Session not made by session(): it cannot end the exchange itself
-                self._refuse(request, f"line server: {exc}", _FLAG_FAILED)
+            if request.live:
+                request.abort(f"line server: {exc}")
             return
         except RobostarError as exc:
             self._refuse(request, f"line server: {exc}", _FLAG_FAILED)
@@ -153,8 +150,8 @@ class LineBackend(Backend):
 
 class _LineSession(Session):
     """An N1 session of the line server: serving's Session, plus what serving does not offer a
-    backend: ending the exchange with RST, and hearing at once that the host gave up a request
-    the backend still has (the link holds such input until the answer, then drops the answer)."""
+    backend: hearing at once that the host gave up a request the backend still has (the link
+    holds such input until the answer, then drops the answer)."""
 
     def __init__(self, backend: Backend, *, name: str, timeout: float) -> None:
         super().__init__(backend, name=name, timeout=timeout)
@@ -175,18 +172,6 @@ class _LineSession(Session):
         """A request of this session waits for the backend's answer (the link's hold)."""
         request = self.current
         return request is not None and request.live and self.link.state in APP_TURN
-
-    def abort_exchange(self, request: Request, reason: str) -> None:
-        """End ``request``'s exchange with RST (if the host still waits for it); KD: ``reason``."""
-        if not request.live or self.closed:
-            return
-        # the link sends RST and reports the exchange failed; the session drops the request as
-        # it does any exchange the link gave up, then takes whatever input the link held
-        self._run(self.link.abort(asyncio.get_running_loop().time()))
-        self._frames.reset()  # as the link's decoder is, after its RST
-        self.error(reason)  # after the session's own "exchange dropped": KD says why
-        if self.on_ready is not None:
-            self.on_ready()  # the host writes the RST out now, not with its next input
 
 
 def _moves_on(frame: FrameEvent) -> bool:

@@ -87,10 +87,11 @@ class Request:
     :meth:`answer` gets its first packet now and its second when the backend calls
     :meth:`finish` (or :meth:`refuse`, which turns the second answer into an error). The answer
     always goes to the session that asked; after that session's exchange ended (the host moved
-    on, the connection closed) :attr:`live` is False and answers are dropped.
+    on, the connection closed) :attr:`live` is False and answers are dropped. When no answer
+    would be true, :meth:`abort` ends the exchange with RST instead.
     """
 
-    __slots__ = ("_packets", "_phase", "_refusal", "_session", "command", "points")
+    __slots__ = ("_abort", "_packets", "_phase", "_refusal", "_session", "command", "points")
 
     def __init__(self, session: Session, command: Command[Any]) -> None:
         self._session = session
@@ -100,6 +101,7 @@ class Request:
         self._phase = _Phase.WAITING
         self._packets: list[bytes] | None = None
         self._refusal: Refusal | None = None
+        self._abort: str | None = None
 
     @property
     def session(self) -> Session:
@@ -116,7 +118,11 @@ class Request:
 
     def answer(self, result: Any = None) -> None:
         """Answer with ``result`` (for FB: None; for DB/DC: the expected wait)."""
-        if self._phase is not _Phase.WAITING or self._packets is not None:
+        if (
+            self._phase is not _Phase.WAITING
+            or self._packets is not None
+            or self._abort is not None
+        ):
             raise UsageError(f"answer: {self.command.CODE} is already answered")
         if isinstance(self.command, UploadFile):
             self._packets = []
@@ -134,6 +140,19 @@ class Request:
     def refuse(self, reason: str, flag: int = FLAG_FAILED) -> None:
         """Refuse (or, in the second phase, fail) with ``flag``; ``reason`` becomes KD's text."""
         self._refusal = Refusal(reason, flag)
+        self._session._answered(self)
+
+    def abort(self, reason: str) -> None:
+        """End the exchange with RST, as a controller that cannot answer does; ``reason``
+        becomes KD's text.
+
+        For a request whose outcome the backend cannot tell (a state change that may have run):
+        a failure flag would tell the host that nothing happened, and a host that retries on
+        failure would run it twice; after an RST its link reports the outcome unknown. As any
+        answer it goes out on the session's next turn (``on_ready`` asks for one), and not at
+        all once :attr:`live` is False. The session then drops the request as it drops any
+        exchange the link gave up."""
+        self._abort = reason or "exchange aborted"
         self._session._answered(self)
 
 
@@ -264,10 +283,14 @@ class Session:
             if self.current is not None and self.current._phase is _Phase.DONE:
                 self.current = None
         elif isinstance(event, ExchangeFailed):
-            self.current = None
-            self._upload = None
+            self._drop_exchange()
             if event.reason is not FailReason.SUPERSEDED:
                 self.error(f"exchange dropped ({event.reason.value}): {event.detail}")
+
+    def _drop_exchange(self) -> None:
+        """The exchange ended abnormally: its request and upload are over."""
+        self.current = None
+        self._upload = None
 
     def _apply_ready(self) -> bool:
         """Apply the first ready answer that can go out now; False when none can."""
@@ -275,7 +298,11 @@ class Session:
             request = self._ready.popleft()
             if request is not self.current or request._phase is _Phase.DONE:
                 continue  # stale: the exchange it belonged to is over
-            if request._phase is _Phase.SECOND and self.link.state is not State.WORKING:
+            if (
+                request._phase is _Phase.SECOND
+                and request._abort is None  # an abort ends the exchange in any state
+                and self.link.state is not State.WORKING
+            ):
                 if self.link.state is State.WAIT_ACK:
                     self._ready.append(request)  # the first answer is not ACKed yet
                 continue
@@ -286,7 +313,10 @@ class Session:
     def _apply(self, request: Request) -> None:
         command = request.command
         refusal = request._refusal
-        if refusal is not None:
+        if request._abort is not None:
+            request._phase = _Phase.DONE
+            self._abort_exchange(request._abort)
+        elif refusal is not None:
             request._phase = _Phase.DONE
             self.error(refusal.reason)
             after = After.FINAL if isinstance(command, UploadFile) else After.DONE
@@ -306,6 +336,19 @@ class Session:
             else:
                 request._phase = _Phase.DONE
                 self._send(request._packets, After.DONE)
+
+    def _abort_exchange(self, reason: str) -> None:
+        """RST: the link reports the exchange failed (ABORTED), then takes any input it held.
+        The exchange is dropped as any other the link gave up, but KD says the backend's reason
+        rather than the link's "aborted by the application"."""
+        events = self.link.abort(self._now)
+        self._drop_exchange()
+        self.error(reason)
+        self._events.extend(
+            event
+            for event in events
+            if not (isinstance(event, ExchangeFailed) and event.reason is FailReason.ABORTED)
+        )
 
     def _send(self, packets: list[bytes], after: After) -> None:
         self._events.extend(self.link.send_answer(packets, after, self._now))
