@@ -112,3 +112,46 @@ def test_abort_sends_nothing_once_the_exchange_is_over() -> None:
     first.abort("too late")
     assert session.data_to_send(0.3) == b""
     assert session.last_error != "too late"
+
+
+# -- exchange_abandoned(session, request) -----------------------------------------------------
+def test_the_backend_hears_at_once_once_that_the_host_gave_the_exchange_up() -> None:
+    backend = Keeper()
+    session, _ = _session(backend, "h1")
+    session.receive_data(_request(SetSpeed(1, 5)), 0.0)
+    (request,) = backend.requests
+    session.receive_data(ACK_B + NAK_B, 0.1)  # noise: the host still waits
+    assert backend.abandoned == []
+    session.receive_data(RST_B, 0.2)
+    assert backend.abandoned == [(session, request)]  # at once, before the backend answers
+    assert request.live  # still the backend's to answer: that ends the exchange
+    session.receive_data(_request(ReadStatus()), 0.3)
+    assert backend.abandoned == [(session, request)]  # once
+    assert len(backend.requests) == 1  # the next request waits for the answer
+    request.answer()
+    assert session.data_to_send(0.4) == b""  # not sent: the host moved on
+    assert len(backend.requests) == 2  # the held request is taken next
+    assert isinstance(backend.requests[1].command, ReadStatus)
+
+
+def test_a_new_request_is_the_host_giving_the_exchange_up_too() -> None:
+    backend = Keeper()
+    session, _ = _session(backend, "h1")
+    session.receive_data(_request(SetSpeed(1, 5)), 0.0)
+    session.receive_data(_request(SetSpeed(1, 6)), 0.1)
+    assert backend.abandoned == [(session, backend.requests[0])]
+    # the superseding request's own turn is told anew
+    backend.requests[0].answer()
+    session.data_to_send(0.2)
+    second = backend.requests[1]
+    session.receive_data(RST_B, 0.3)
+    assert backend.abandoned[1:] == [(session, second)]
+
+
+def test_input_in_the_same_read_as_the_request_is_taken_after_the_answer_untold() -> None:
+    backend = Keeper()
+    session, _ = _session(backend, "h1")
+    session.receive_data(_request(SetSpeed(1, 5)) + RST_B, 0.0)
+    assert backend.abandoned == []  # pipelined input is not "during the backend's turn"
+    backend.requests[0].answer()
+    assert session.data_to_send(0.1) == b""  # the held RST still cancels the answer

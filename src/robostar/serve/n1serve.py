@@ -20,14 +20,12 @@ from __future__ import annotations
 import asyncio
 import logging
 import ssl
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING
 
 from robostar.commands.files import UploadFile
 from robostar.commands.system import ReadLastError
 from robostar.errors import ControllerError, OutcomeUnknownError, RobostarError
-from robostar.protocol.frame import Control, ControlKind, FrameDecoder, FrameEvent, Packet
-from robostar.protocol.link import APP_TURN
 from robostar.serve.lease import LeaseHeldError, Who
 from robostar.serve.line import Line
 from robostar.serving import AsyncHost, Backend, Refusal, Request, Session
@@ -109,11 +107,7 @@ class LineBackend(Backend):
 
     def session(self, name: str, timeout: float) -> Session:
         """A new N1 session on this backend (one per connection)."""
-        session = _LineSession(self, name=name, timeout=timeout)
-        session.on_abandoned = lambda: self._withdraw(
-            session, "the host gave the exchange up (an RST or a new request)"
-        )
-        return session
+        return Session(self, name=name, timeout=timeout)
 
     def begin_upload(self, session: Session, command: UploadFile) -> None:
         """Refuse an FB before its lines are sent when another consumer, another N1 session
@@ -124,6 +118,10 @@ class LineBackend(Backend):
         error = LeaseHeldError(self.line.name, holder)
         self.line.record(command, self.who(session), f"refused: {error}")
         raise Refusal(str(error), _FLAG_FAILED)
+
+    def exchange_abandoned(self, session: Session, request: Request) -> None:
+        # nobody waits for its outcome now: a write of a host that moved on must not run
+        self._withdraw(session, "the host gave the exchange up (an RST or a new request)")
 
     def session_closed(self, session: Session) -> None:
         self._withdraw(session, "its N1 connection closed")
@@ -146,40 +144,6 @@ class LineBackend(Backend):
             task.cancel()
         if self._tasks:
             await asyncio.gather(*self._tasks, return_exceptions=True)
-
-
-class _LineSession(Session):
-    """An N1 session of the line server: serving's Session, plus what serving does not offer a
-    backend: hearing at once that the host gave up a request the backend still has (the link
-    holds such input until the answer, then drops the answer)."""
-
-    def __init__(self, backend: Backend, *, name: str, timeout: float) -> None:
-        super().__init__(backend, name=name, timeout=timeout)
-        self.on_abandoned: Callable[[], None] | None = None
-        """Called when the host moves on while its request is with the backend."""
-        self._frames = FrameDecoder()
-        """The host's frames as the link decodes them (the same bytes, in step), so that what
-        the link holds during the backend's turn can be seen as it arrives."""
-
-    def receive_data(self, data: bytes, now: float) -> None:
-        with_backend = self._with_backend()
-        super().receive_data(data, now)
-        frames = self._frames.feed(data)
-        if with_backend and self.on_abandoned is not None and any(map(_moves_on, frames)):
-            self.on_abandoned()
-
-    def _with_backend(self) -> bool:
-        """A request of this session waits for the backend's answer (the link's hold)."""
-        request = self.current
-        return request is not None and request.live and self.link.state in APP_TURN
-
-
-def _moves_on(frame: FrameEvent) -> bool:
-    """The host gave up the exchange open on the link: an RST or any packet (the link's own
-    rule, ``Link._peer_moved_on``); ACK, NAK and damaged frames are noise."""
-    return isinstance(frame, Packet) or (
-        isinstance(frame, Control) and frame.kind is ControlKind.RST
-    )
 
 
 class N1Face:

@@ -31,6 +31,7 @@ from robostar.protocol.link import (
     ExchangeFailed,
     FailReason,
     LinkEvent,
+    PeerMovedOn,
     RequestReceived,
     State,
     UploadPacketReceived,
@@ -167,6 +168,15 @@ class Backend:
         """FB arrived in ``session`` (no lines yet): raise :class:`Refusal` to refuse before the
         lines (the session says who uploads: one backend serves many)."""
 
+    def exchange_abandoned(self, session: Session, request: Request) -> None:
+        """The host of ``session`` gave ``request``'s exchange up (an RST, a new request) while
+        the backend still has it: stop work nobody waits for (a write queued for a host that
+        moved on must not run). Told at once (the link holds the host's input until the
+        answer), once a request. The request stays :attr:`~Request.live` until the backend
+        answers it (the answer is then not sent): only that lets the session take the host's
+        next request. After a two-phase first answer the host's move ends the exchange at once
+        instead, and :attr:`~Request.live` turns False."""
+
     def note_error(self, session: Session, text: str) -> None:
         """A refusal or a line error in ``session``: the text KD is to report."""
 
@@ -286,6 +296,10 @@ class Session:
             self._drop_exchange()
             if event.reason is not FailReason.SUPERSEDED:
                 self.error(f"exchange dropped ({event.reason.value}): {event.detail}")
+        elif isinstance(event, PeerMovedOn):
+            request = self.current
+            if request is not None and request.live:
+                self.backend.exchange_abandoned(self, request)
 
     def _drop_exchange(self) -> None:
         """The exchange ended abnormally: its request and upload are over."""
