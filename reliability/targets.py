@@ -35,6 +35,7 @@ from robostar.protocol.link import (
     HostLink,
     Ignored,
     LinkEvent,
+    PeerMovedOn,
     RequestReceived,
     State,
     UploadPacketReceived,
@@ -61,6 +62,7 @@ _LINK_EVENTS = (
     ExchangeFailed,
     RequestReceived,
     UploadPacketReceived,
+    PeerMovedOn,
     Ignored,
 )
 _HOST_WAITS_FOR_APP = frozenset((State.IDLE, State.UPLOAD_READY))

@@ -30,6 +30,7 @@ from robostar.protocol.link import (
     Input,
     Link,
     LinkEvent,
+    PeerMovedOn,
     RequestReceived,
     Role,
     State,
@@ -426,6 +427,15 @@ HELD: dict[tuple[State, Input], tuple[bytes, list[object], State, float | None]]
 """What each held line input does once the application has made its next call (at T1): the
 bytes written by then, the events that call returns, the state and the deadline after it."""
 
+REPORTED: dict[tuple[State, Input], list[object]] = {
+    (State.HANDLING, Input.PACKET): [PeerMovedOn(State.HANDLING)],
+    (State.HANDLING, Input.RST): [PeerMovedOn(State.HANDLING)],
+    (State.UPLOAD_HANDLING, Input.PACKET): [PeerMovedOn(State.UPLOAD_HANDLING)],
+    (State.UPLOAD_HANDLING, Input.RST): [PeerMovedOn(State.UPLOAD_HANDLING)],
+}
+"""What held line input reports at once, as it arrives (else nothing): a controller says that
+its host moved on, so that its application can drop work nobody waits for."""
+
 
 def plain(events: list[LinkEvent]) -> list[object]:
     """``events`` with each rule break paired with its error's (role, state, event): exceptions
@@ -467,8 +477,9 @@ def test_every_missing_pair_breaks_a_rule_or_waits_for_the_application(
         assert link.state is state
         assert link.data_to_send() == b""
         return
-    # Line input in the application's turn is held, not a broken rule: nothing happens...
-    assert fire(link, what) == []
+    # Line input in the application's turn is held, not a broken rule: nothing happens (but a
+    # controller's report that the host moved on)...
+    assert fire(link, what) == REPORTED.get((state, what), [])
     assert link.data_to_send() == b""
     assert link.state is state
     assert link.next_deadline() is None
@@ -1625,7 +1636,7 @@ def test_held_input_is_taken_in_order_until_the_applications_next_turn() -> None
 def test_input_held_across_reads_keeps_its_order() -> None:
     ctl = ControllerLink()
     assert ctl.receive_data(frame(AA), 0.0) == [RequestReceived(AA)]
-    assert ctl.receive_data(RST_B, 0.05) == []
+    assert ctl.receive_data(RST_B, 0.05) == [PeerMovedOn(State.HANDLING)]  # told once
     assert ctl.receive_data(frame(AB), 0.08) == []
     assert ctl.data_to_send() == b""
     assert ctl.state is State.HANDLING
@@ -1635,6 +1646,31 @@ def test_input_held_across_reads_keeps_its_order() -> None:
     ]
     assert ctl.data_to_send() == b""
     assert ctl.state is State.HANDLING and ctl.next_deadline() is None
+
+
+def test_a_controller_tells_at_once_once_a_turn_that_its_host_moved_on() -> None:
+    # The application may drop work nobody waits for as soon as the host gives up, not only at
+    # its answer: noise does not show it, an RST or a packet does, and a new turn is told anew.
+    ctl = ControllerLink()
+    assert ctl.receive_data(frame(AA), 0.0) == [RequestReceived(AA)]
+    assert ctl.receive_data(ACK_B + NAK_B + BAD_LRC, 0.1) == []
+    assert ctl.receive_data(RST_B, 0.2) == [PeerMovedOn(State.HANDLING)]
+    assert ctl.receive_data(frame(AB), 0.3) == []
+    assert ctl.send_answer([AA_ANSWER], After.DONE, 0.4) == [
+        ExchangeFailed(FailReason.RESET, State.HANDLING, CANCELLED),
+        RequestReceived(AB),
+    ]
+    assert ctl.receive_data(frame(AA), 0.5) == [PeerMovedOn(State.HANDLING)]
+    # The closing packet of an upload is the application's turn too.
+    ctl = ControllerLink()
+    ctl.receive_data(frame(FB), 0.0)
+    ctl.send_answer([FB_OK], After.UPLOAD, 0.0)
+    assert ctl.receive_data(frame(END), 0.1) == [UploadPacketReceived(b"", end=True)]
+    assert ctl.receive_data(RST_B, 0.2) == [PeerMovedOn(State.UPLOAD_HANDLING)]
+    assert ctl.accept_upload(0.3) == [
+        ExchangeFailed(FailReason.RESET, State.UPLOAD_HANDLING, CANCELLED)
+    ]
+    assert ctl.data_to_send() == frame(FB_OK)
 
 
 def test_held_noise_up_to_the_peers_move_is_dropped_and_the_rest_taken_in_order() -> None:
@@ -2497,7 +2533,7 @@ def test_an_answer_to_a_request_the_host_gave_up_never_lands_on_its_next_request
     assert [(f.reason, f.state) for f in failures(host)] == [
         (FailReason.TIMEOUT, State.WAIT_ANSWER)
     ]
-    assert ctl == [RequestReceived(AC)]
+    assert ctl == [RequestReceived(AC), PeerMovedOn(State.HANDLING)]
     assert pair.to_ctl == ([frame(AC), frame(BA)] if rst_lost else [frame(AC), RST_B, frame(BA)])
     assert pair.host.state is State.WAIT_ANSWER
     pair.now = 2.3
@@ -2523,7 +2559,7 @@ def test_a_held_rst_does_not_discard_the_start_of_a_later_frame() -> None:
     # start is kept, and the request is taken whole when its end arrives.
     ctl = ControllerLink()
     assert ctl.receive_data(frame(AA), 0.0) == [RequestReceived(AA)]
-    assert ctl.receive_data(RST_B, 0.1) == []
+    assert ctl.receive_data(RST_B, 0.1) == [PeerMovedOn(State.HANDLING)]
     request = frame(BA)
     assert ctl.receive_data(request[:3], 0.4) == []
     assert ctl.send_answer([AA_ANSWER], After.DONE, 0.5) == [

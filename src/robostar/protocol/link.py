@@ -52,6 +52,7 @@ __all__ = [
     "Input",
     "Link",
     "LinkEvent",
+    "PeerMovedOn",
     "RequestReceived",
     "Role",
     "State",
@@ -213,6 +214,20 @@ class UploadPacketReceived:
 
 
 @dataclass(frozen=True, slots=True)
+class PeerMovedOn:
+    """Controller, in the application's turn (:data:`APP_TURN`): a read brought an RST or a
+    packet, so the host has given the exchange up while the application still works on it.
+
+    The input is held as any input in the turn, and the application's answer will not be sent
+    (``Link._peer_moved_on``); this says so at once, so that the application can drop work
+    nobody waits for any more. Reported once a turn, for input read after the turn began (what
+    came in the same read as the request that started it is taken in order after the answer,
+    as ever)."""
+
+    state: State
+
+
+@dataclass(frozen=True, slots=True)
 class Ignored:
     """Something arrived that the rules say to drop (a stray ACK, a resent packet); for traces."""
 
@@ -227,6 +242,7 @@ LinkEvent = (
     | ExchangeFailed
     | RequestReceived
     | UploadPacketReceived
+    | PeerMovedOn
     | Ignored
 )
 
@@ -405,7 +421,10 @@ class Link:
         self._now = now
         backlog = self._backlog
         waiting = self.state in APP_TURN  # the application is busy with the last request
-        backlog.extend(self.decoder.feed(data))
+        frames = self.decoder.feed(data)
+        if waiting and frames:
+            self._held_in_turn(frames)
+        backlog.extend(frames)
         if backlog:
             self._take_backlog()
             if waiting and len(backlog) > MAX_BACKLOG:
@@ -594,6 +613,9 @@ class Link:
         # An RST is only ever read between frames: nothing of the decoder's is to be dropped
         # (and a held RST must not drop the start of a frame that came after it).
         self._fail(FailReason.RESET, "RST received", send_rst=False)
+
+    def _held_in_turn(self, frames: list[FrameEvent]) -> None:
+        """``frames`` arrived in the application's turn and are held (see :data:`APP_TURN`)."""
 
     def _peer_moved_on(self) -> bool:
         """At the application's call in its turn: if the peer sent an RST or a packet meanwhile,
@@ -1202,6 +1224,7 @@ class ControllerLink(Link):
         self.max_resends = max_resends
         self._queue: list[bytes] = []  # the answer's later packets, framed
         self._after = After.DONE
+        self._told_moved_on = False  # PeerMovedOn reported in the current turn
 
     # -- application calls -----------------------------------------------------------------
     def send_answer(self, packets: Sequence[bytes], after: After, now: float) -> list[LinkEvent]:
@@ -1227,9 +1250,16 @@ class ControllerLink(Link):
         return self._take_events()
 
     # -- handlers --------------------------------------------------------------------------
+    def _held_in_turn(self, frames: list[FrameEvent]) -> None:
+        # the rule _peer_moved_on applies at the application's next call; told now, once
+        if not self._told_moved_on and any(map(_moves_on, frames)):
+            self._told_moved_on = True
+            self._emit(PeerMovedOn(self.state))
+
     def _c_request(self, data: bytes) -> None:
         self._good_packet()
         self.state = State.HANDLING
+        self._told_moved_on = False
         self._emit(RequestReceived(data))
 
     def _c_send_answer(self, data: bytes) -> None:
@@ -1284,6 +1314,7 @@ class ControllerLink(Link):
 
     def _c_upload_packet(self, data: bytes) -> None:
         self._good_packet()
+        self._told_moved_on = False  # a new turn (or none: a request, a broken rule)
         if data[:1] == b"\xff":
             self._fail(FailReason.SUPERSEDED, "a new request arrived mid-upload", send_rst=False)
             self._c_request(data)
@@ -1309,6 +1340,15 @@ class ControllerLink(Link):
             return
         self._send_control(ACK)
         self._finish(_COMPLETE)
+
+
+def _moves_on(event: FrameEvent) -> bool:
+    """Input that shows the peer gave up the exchange when it arrives in the application's
+    turn: an RST or any packet (``Link._peer_moved_on``). ACK, NAK and damaged frames are
+    noise."""
+    return isinstance(event, Packet) or (
+        isinstance(event, Control) and event.kind is ControlKind.RST
+    )
 
 
 def _holds_packet(backlog: list[FrameEvent]) -> bool:

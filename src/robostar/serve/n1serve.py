@@ -20,15 +20,12 @@ from __future__ import annotations
 import asyncio
 import logging
 import ssl
-from collections.abc import Callable, Mapping, Sequence
-from typing import TYPE_CHECKING, Any
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING
 
-from robostar.commands.base import Command
 from robostar.commands.files import UploadFile
 from robostar.commands.system import ReadLastError
 from robostar.errors import ControllerError, OutcomeUnknownError, RobostarError
-from robostar.protocol.frame import Control, ControlKind, FrameDecoder, FrameEvent, Packet
-from robostar.protocol.link import APP_TURN
 from robostar.serve.lease import LeaseHeldError, Who
 from robostar.serve.line import Line
 from robostar.serving import AsyncHost, Backend, Refusal, Request, Session
@@ -85,11 +82,8 @@ class LineBackend(Backend):
             # not 0x32: "failed" would tell the host that nothing happened. A controller that
             # cannot say ends the exchange (RST); the host's link then reports the outcome as
             # unknown (robostar's client: OutcomeUnknownError), and KD says why.
-            session = request.session
-            if isinstance(session, _LineSession):
-                session.abort_exchange(request, f"line server: {exc}")
-            else:  # a Session not made by session(): it cannot end the exchange itself
-                self._refuse(request, f"line server: {exc}", _FLAG_FAILED)
+            if request.live:
+                request.abort(f"line server: {exc}")
             return
         except RobostarError as exc:
             self._refuse(request, f"line server: {exc}", _FLAG_FAILED)
@@ -113,31 +107,21 @@ class LineBackend(Backend):
 
     def session(self, name: str, timeout: float) -> Session:
         """A new N1 session on this backend (one per connection)."""
-        hooks = _SessionHooks(self)
-        session = _LineSession(hooks, name=name, timeout=timeout)
-        hooks.session = session
-        session.on_abandoned = lambda: self._withdraw(
-            session, "the host gave the exchange up (an RST or a new request)"
-        )
-        return session
+        return Session(self, name=name, timeout=timeout)
 
-    def begin_upload(self, command: UploadFile, session: Session | None = None) -> None:
+    def begin_upload(self, session: Session, command: UploadFile) -> None:
         """Refuse an FB before its lines are sent when another consumer, another N1 session
-        included, holds the lease (``session``: the one uploading)."""
+        included, holds the lease."""
         holder = self.line.lease.holder
-        if holder is None:
-            return  # free: the upload takes it when it is carried out
-        if session is None:
-            # serving's own hook does not say which session (see _SessionHooks): let an N1
-            # holder through, and the lease is checked when the upload is carried out
-            if holder.who.face == "n1":
-                return
-        elif holder.who == self.who(session):
-            return
+        if holder is None or holder.who == self.who(session):
+            return  # free (the upload takes it when it is carried out), or this session's
         error = LeaseHeldError(self.line.name, holder)
-        if session is not None:
-            self.line.record(command, self.who(session), f"refused: {error}")
+        self.line.record(command, self.who(session), f"refused: {error}")
         raise Refusal(str(error), _FLAG_FAILED)
+
+    def exchange_abandoned(self, session: Session, request: Request) -> None:
+        # nobody waits for its outcome now: a write of a host that moved on must not run
+        self._withdraw(session, "the host gave the exchange up (an RST or a new request)")
 
     def session_closed(self, session: Session) -> None:
         self._withdraw(session, "its N1 connection closed")
@@ -160,77 +144,6 @@ class LineBackend(Backend):
             task.cancel()
         if self._tasks:
             await asyncio.gather(*self._tasks, return_exceptions=True)
-
-
-class _LineSession(Session):
-    """An N1 session of the line server: serving's Session, plus what serving does not offer a
-    backend: ending the exchange with RST, and hearing at once that the host gave up a request
-    the backend still has (the link holds such input until the answer, then drops the answer)."""
-
-    def __init__(self, backend: Backend, *, name: str, timeout: float) -> None:
-        super().__init__(backend, name=name, timeout=timeout)
-        self.on_abandoned: Callable[[], None] | None = None
-        """Called when the host moves on while its request is with the backend."""
-        self._frames = FrameDecoder()
-        """The host's frames as the link decodes them (the same bytes, in step), so that what
-        the link holds during the backend's turn can be seen as it arrives."""
-
-    def receive_data(self, data: bytes, now: float) -> None:
-        with_backend = self._with_backend()
-        super().receive_data(data, now)
-        frames = self._frames.feed(data)
-        if with_backend and self.on_abandoned is not None and any(map(_moves_on, frames)):
-            self.on_abandoned()
-
-    def _with_backend(self) -> bool:
-        """A request of this session waits for the backend's answer (the link's hold)."""
-        request = self.current
-        return request is not None and request.live and self.link.state in APP_TURN
-
-    def abort_exchange(self, request: Request, reason: str) -> None:
-        """End ``request``'s exchange with RST (if the host still waits for it); KD: ``reason``."""
-        if not request.live or self.closed:
-            return
-        # the link sends RST and reports the exchange failed; the session drops the request as
-        # it does any exchange the link gave up, then takes whatever input the link held
-        self._run(self.link.abort(asyncio.get_running_loop().time()))
-        self._frames.reset()  # as the link's decoder is, after its RST
-        self.error(reason)  # after the session's own "exchange dropped": KD says why
-        if self.on_ready is not None:
-            self.on_ready()  # the host writes the RST out now, not with its next input
-
-
-def _moves_on(frame: FrameEvent) -> bool:
-    """The host gave up the exchange open on the link: an RST or any packet (the link's own
-    rule, ``Link._peer_moved_on``); ACK, NAK and damaged frames are noise."""
-    return isinstance(frame, Packet) or (
-        isinstance(frame, Control) and frame.kind is ControlKind.RST
-    )
-
-
-class _SessionHooks(Backend):
-    """A :class:`LineBackend` as one session sees it. serving calls ``begin_upload`` without
-    saying which session uploads; this per-session face of the shared backend passes it on, so
-    that an FB from a session other than the lease holder is refused before its lines."""
-
-    def __init__(self, backend: LineBackend) -> None:
-        self.backend = backend
-        self.session: Session | None = None
-
-    def handle(self, request: Request) -> None:
-        self.backend.handle(request)
-
-    def begin_upload(self, command: UploadFile) -> None:
-        self.backend.begin_upload(command, self.session)
-
-    def note_error(self, session: Session, text: str) -> None:
-        self.backend.note_error(session, text)
-
-    def session_closed(self, session: Session) -> None:
-        self.backend.session_closed(session)
-
-    def dress_answer(self, command: Command[Any], packets: list[bytes]) -> list[bytes]:
-        return self.backend.dress_answer(command, packets)
 
 
 class N1Face:

@@ -12,9 +12,12 @@ One machinery for the simulator and the line server; each connection is its own 
   0x33; the reason is the session's ``last_error``, KD's text); raising :class:`Refusal` refuses
   too. Two-phase commands (DB, DC, CE): ``answer(wait)`` sends the first answer, ``finish()``
   (or ``refuse``) the second, always to the session that asked; once that session moved on,
-  ``request.live`` is False and answers are dropped. KD is the backend's to answer (the
-  session's ``last_error`` holds the last refusal of that session). Hooks: ``begin_upload``
-  (refuse an FB before its lines, synchronously), ``note_error``, ``session_closed``.
+  ``request.live`` is False and answers are dropped; ``request.abort(reason)`` ends the exchange
+  with RST instead (an outcome the backend cannot tell). KD is the backend's to answer (the
+  session's ``last_error`` holds the last refusal of that session). Hooks, each given the
+  session: ``begin_upload`` (refuse an FB before its lines, synchronously),
+  ``exchange_abandoned`` (the host gave up a request the backend still has), ``note_error``,
+  ``session_closed``.
 - Hosts: :class:`AsyncHost` (asyncio, one session per TCP connection, ``max_clients``) and the
   threaded :class:`~robostar.serving.threaded.PeerHost` the simulator runs on (TCP clients and a
   pseudo-terminal, each its own line). Both drop one failing or stalled connection and go on.

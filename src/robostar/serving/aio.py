@@ -146,7 +146,7 @@ class _TurnAway(Backend):
             return
         raise Refusal(self.reason, FLAG_FAILED)
 
-    def begin_upload(self, command: UploadFile) -> None:
+    def begin_upload(self, session: Session, command: UploadFile) -> None:
         raise Refusal(self.reason, FLAG_FAILED)
 
 

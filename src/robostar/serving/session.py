@@ -31,6 +31,7 @@ from robostar.protocol.link import (
     ExchangeFailed,
     FailReason,
     LinkEvent,
+    PeerMovedOn,
     RequestReceived,
     State,
     UploadPacketReceived,
@@ -87,10 +88,11 @@ class Request:
     :meth:`answer` gets its first packet now and its second when the backend calls
     :meth:`finish` (or :meth:`refuse`, which turns the second answer into an error). The answer
     always goes to the session that asked; after that session's exchange ended (the host moved
-    on, the connection closed) :attr:`live` is False and answers are dropped.
+    on, the connection closed) :attr:`live` is False and answers are dropped. When no answer
+    would be true, :meth:`abort` ends the exchange with RST instead.
     """
 
-    __slots__ = ("_packets", "_phase", "_refusal", "_session", "command", "points")
+    __slots__ = ("_abort", "_packets", "_phase", "_refusal", "_session", "command", "points")
 
     def __init__(self, session: Session, command: Command[Any]) -> None:
         self._session = session
@@ -100,6 +102,7 @@ class Request:
         self._phase = _Phase.WAITING
         self._packets: list[bytes] | None = None
         self._refusal: Refusal | None = None
+        self._abort: str | None = None
 
     @property
     def session(self) -> Session:
@@ -116,7 +119,11 @@ class Request:
 
     def answer(self, result: Any = None) -> None:
         """Answer with ``result`` (for FB: None; for DB/DC: the expected wait)."""
-        if self._phase is not _Phase.WAITING or self._packets is not None:
+        if (
+            self._phase is not _Phase.WAITING
+            or self._packets is not None
+            or self._abort is not None
+        ):
             raise UsageError(f"answer: {self.command.CODE} is already answered")
         if isinstance(self.command, UploadFile):
             self._packets = []
@@ -136,6 +143,19 @@ class Request:
         self._refusal = Refusal(reason, flag)
         self._session._answered(self)
 
+    def abort(self, reason: str) -> None:
+        """End the exchange with RST, as a controller that cannot answer does; ``reason``
+        becomes KD's text.
+
+        For a request whose outcome the backend cannot tell (a state change that may have run):
+        a failure flag would tell the host that nothing happened, and a host that retries on
+        failure would run it twice; after an RST its link reports the outcome unknown. As any
+        answer it goes out on the session's next turn (``on_ready`` asks for one), and not at
+        all once :attr:`live` is False. The session then drops the request as it drops any
+        exchange the link gave up."""
+        self._abort = reason or "exchange aborted"
+        self._session._answered(self)
+
 
 class Backend:
     """What a session hands its requests to. Override :meth:`handle`; the rest are hooks."""
@@ -144,8 +164,18 @@ class Backend:
         """Act on ``request`` and answer it now or later (raising :class:`Refusal` refuses)."""
         raise NotImplementedError
 
-    def begin_upload(self, command: UploadFile) -> None:
-        """FB arrived (no lines yet): raise :class:`Refusal` to refuse before the lines."""
+    def begin_upload(self, session: Session, command: UploadFile) -> None:
+        """FB arrived in ``session`` (no lines yet): raise :class:`Refusal` to refuse before the
+        lines (the session says who uploads: one backend serves many)."""
+
+    def exchange_abandoned(self, session: Session, request: Request) -> None:
+        """The host of ``session`` gave ``request``'s exchange up (an RST, a new request) while
+        the backend still has it: stop work nobody waits for (a write queued for a host that
+        moved on must not run). Told at once (the link holds the host's input until the
+        answer), once a request. The request stays :attr:`~Request.live` until the backend
+        answers it (the answer is then not sent): only that lets the session take the host's
+        next request. After a two-phase first answer the host's move ends the exchange at once
+        instead, and :attr:`~Request.live` turns False."""
 
     def note_error(self, session: Session, text: str) -> None:
         """A refusal or a line error in ``session``: the text KD is to report."""
@@ -263,10 +293,18 @@ class Session:
             if self.current is not None and self.current._phase is _Phase.DONE:
                 self.current = None
         elif isinstance(event, ExchangeFailed):
-            self.current = None
-            self._upload = None
+            self._drop_exchange()
             if event.reason is not FailReason.SUPERSEDED:
                 self.error(f"exchange dropped ({event.reason.value}): {event.detail}")
+        elif isinstance(event, PeerMovedOn):
+            request = self.current
+            if request is not None and request.live:
+                self.backend.exchange_abandoned(self, request)
+
+    def _drop_exchange(self) -> None:
+        """The exchange ended abnormally: its request and upload are over."""
+        self.current = None
+        self._upload = None
 
     def _apply_ready(self) -> bool:
         """Apply the first ready answer that can go out now; False when none can."""
@@ -274,7 +312,11 @@ class Session:
             request = self._ready.popleft()
             if request is not self.current or request._phase is _Phase.DONE:
                 continue  # stale: the exchange it belonged to is over
-            if request._phase is _Phase.SECOND and self.link.state is not State.WORKING:
+            if (
+                request._phase is _Phase.SECOND
+                and request._abort is None  # an abort ends the exchange in any state
+                and self.link.state is not State.WORKING
+            ):
                 if self.link.state is State.WAIT_ACK:
                     self._ready.append(request)  # the first answer is not ACKed yet
                 continue
@@ -285,7 +327,10 @@ class Session:
     def _apply(self, request: Request) -> None:
         command = request.command
         refusal = request._refusal
-        if refusal is not None:
+        if request._abort is not None:
+            request._phase = _Phase.DONE
+            self._abort_exchange(request._abort)
+        elif refusal is not None:
             request._phase = _Phase.DONE
             self.error(refusal.reason)
             after = After.FINAL if isinstance(command, UploadFile) else After.DONE
@@ -306,6 +351,19 @@ class Session:
                 request._phase = _Phase.DONE
                 self._send(request._packets, After.DONE)
 
+    def _abort_exchange(self, reason: str) -> None:
+        """RST: the link reports the exchange failed (ABORTED), then takes any input it held.
+        The exchange is dropped as any other the link gave up, but KD says the backend's reason
+        rather than the link's "aborted by the application"."""
+        events = self.link.abort(self._now)
+        self._drop_exchange()
+        self.error(reason)
+        self._events.extend(
+            event
+            for event in events
+            if not (isinstance(event, ExchangeFailed) and event.reason is FailReason.ABORTED)
+        )
+
     def _send(self, packets: list[bytes], after: After) -> None:
         self._events.extend(self.link.send_answer(packets, after, self._now))
 
@@ -324,7 +382,7 @@ class Session:
         self.current = request
         try:
             if isinstance(command, UploadFile):
-                self.backend.begin_upload(command)
+                self.backend.begin_upload(self, command)
                 self._upload = _Upload(request, [])
                 self._send([command.ok()], After.UPLOAD)
             else:

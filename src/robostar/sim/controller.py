@@ -197,7 +197,7 @@ class VirtualController(Backend):
     def note_error(self, session: Session, text: str) -> None:
         self.model.last_error = text
 
-    def begin_upload(self, command: UploadFile) -> None:
+    def begin_upload(self, session: Session, command: UploadFile) -> None:
         self._outcome(command)
 
     def handle(self, request: Request) -> None:
