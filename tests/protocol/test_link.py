@@ -1706,13 +1706,12 @@ def test_held_noise_alone_is_taken_after_the_answer() -> None:
 
 
 def test_abort_is_the_applications_call_too() -> None:
+    # An RST held behind the request: at the application's abort, as at its answer, the host
+    # has moved on (RESET) and nothing is sent; the RST is not read as stray input after it.
     ctl = ControllerLink()
     assert ctl.receive_data(frame(AA) + RST_B, 0.0) == [RequestReceived(AA)]
-    assert ctl.abort(0.1) == [
-        ExchangeFailed(FailReason.ABORTED, State.HANDLING, "aborted by the application"),
-        Ignored("stray input", State.LISTEN),
-    ]
-    assert ctl.data_to_send() == RST_B
+    assert ctl.abort(0.1) == [ExchangeFailed(FailReason.RESET, State.HANDLING, CANCELLED)]
+    assert ctl.data_to_send() == b""
     assert ctl.idle and ctl.next_deadline() is None
 
 
@@ -2802,3 +2801,26 @@ def test_a_line_that_never_goes_quiet_cannot_hold_a_request_for_ever() -> None:
         host.handle_timeout(now)
     assert host.state is State.WAIT_ANSWER
     assert now == pytest.approx(cap, abs=0.31)
+
+
+def test_a_controller_aborting_after_its_host_moved_on_sends_no_rst() -> None:
+    # The application's abort in its turn follows the rule its answer does: a host that gave
+    # the exchange up is not sent an RST, which would land on its next request (taken there
+    # as refused while that request is served next: retried, it would run twice).
+    ctl = ControllerLink()
+    assert ctl.receive_data(frame(AA), 0.0) == [RequestReceived(AA)]
+    assert ctl.receive_data(frame(AB), 0.1) == [PeerMovedOn(State.HANDLING)]
+    failed, taken = ctl.abort(0.2)
+    assert isinstance(failed, ExchangeFailed) and failed.reason is FailReason.SUPERSEDED
+    assert taken == RequestReceived(AB)  # the new request is served next
+    assert ctl.data_to_send() == b""
+    ctl = ControllerLink()
+    ctl.receive_data(frame(AA), 0.0)
+    ctl.receive_data(RST_B, 0.1)
+    assert ctl.abort(0.2) == [ExchangeFailed(FailReason.RESET, State.HANDLING, CANCELLED)]
+    assert ctl.data_to_send() == b"" and ctl.idle
+    # with nothing from the host, the abort is an RST as before
+    ctl = ControllerLink()
+    ctl.receive_data(frame(AA), 0.0)
+    assert ctl.abort(0.1)[0].reason is FailReason.ABORTED
+    assert ctl.data_to_send() == RST_B

@@ -1226,6 +1226,15 @@ class ControllerLink(Link):
         self._after = After.DONE
         self._told_moved_on = False  # PeerMovedOn reported in the current turn
 
+    def _abort(self, data: bytes) -> None:
+        # An abort in the application's turn is its call there like an answer: if the host
+        # has moved on meanwhile (an RST, a new request), nothing is sent. An RST now would
+        # land on the host's next exchange, which it would take as refused while the held
+        # request is then served: a host that retried would run it twice.
+        if self._peer_moved_on():
+            return
+        super()._abort(data)
+
     # -- application calls -----------------------------------------------------------------
     def send_answer(self, packets: Sequence[bytes], after: After, now: float) -> list[LinkEvent]:
         """Answer the current request (or upload packet) with one or more packets' data."""
