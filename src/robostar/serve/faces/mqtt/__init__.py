@@ -28,6 +28,7 @@ from urllib.parse import urlsplit
 import aiomqtt
 from paho.mqtt.packettypes import PacketTypes
 from paho.mqtt.properties import Properties
+from paho.mqtt.subscribeoptions import SubscribeOptions
 
 from robostar.commands.base import Command
 from robostar.errors import RobostarError, UsageError
@@ -208,6 +209,18 @@ async def _wait_event(event: asyncio.Event, timeout: float | None) -> None:
         waiter.cancel()
 
 
+def _command_options() -> SubscribeOptions:
+    """How the face subscribes to command topics. A retained command would run again at every
+    reconnect and restart: the broker is told not to send retained messages on subscribe
+    (retain handling 2), and to keep the retain flag as published (so a retained command that
+    arrives live is seen as such, and refused)."""
+    return SubscribeOptions(
+        qos=1,
+        retainAsPublished=True,
+        retainHandling=SubscribeOptions.RETAIN_DO_NOT_SEND,
+    )
+
+
 def _short(text: str, size: int = 80) -> str:
     """A name from the wire, cut to a size fit for a message or the audit log."""
     return text if len(text) <= size else f"{text[:size]}..."
@@ -350,7 +363,9 @@ class _LineLink:
                     up = b"true" if self.line.up else b"false"
                     await client.publish(online, up, qos=1, retain=True)
                     if settings.commands:
-                        await client.subscribe(topics.commands(self.line.name), qos=1)
+                        await client.subscribe(
+                            topics.commands(self.line.name), options=_command_options()
+                        )
                     await self._replay(client)
                     self.client = client
                     self.reporter.forget()  # the current state goes out again, retained
@@ -386,6 +401,13 @@ class _LineLink:
         async for message in client.messages:
             name = self.face.topics.command_name(str(message.topic), self.line.name)
             if name is None:
+                continue
+            if message.retain:
+                problem = UsageError(
+                    "a retained command message is refused (it would run again at every"
+                    " reconnect); publish commands without retain"
+                )
+                await self._refuse(client, message, name, problem)
                 continue
             if name not in self.face.settings.commands:
                 problem = UsageError(f"command {_short(name)!r} is not enabled on this server")
