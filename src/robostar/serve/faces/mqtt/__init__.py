@@ -75,6 +75,9 @@ _OPTIONS = frozenset(
 _COMMAND_OPTIONS = frozenset(("enabled", "allow", "estop", "max_pending", "max_payload"))
 _STOP_NAMES = frozenset((ESTOP, "stop_job"))
 """Commands that jump every queue at the line: they have their own lane in the face too."""
+REPLAY_WINDOW = 100
+"""Buffered rows a replay has out at once: one round trip per window, not one per row (paho
+keeps its own in-flight limit beneath), and a bounded number of publishes waiting."""
 INCOMING_QUEUE = 256
 """aiomqtt's own queue of received messages per connection. Past it the client discards what
 arrives (logged once in a while: QueueFullFilter), so a flood costs bounded memory even before
@@ -286,7 +289,10 @@ class _LineLink:
         self.buffer = StoreAndForward(path, max_rows=settings.buffer_rows)
         self.reporter = Reporter(deadband=settings.deadband, max_rate=settings.rate)
         self.client: aiomqtt.Client | None = None
-        self.replaying = False
+        self._not_replaying = asyncio.Event()
+        """Clear while a replay runs: the pump then leaves changes in the reporter (the latest
+        per topic) instead of adding them to the buffer behind the replay."""
+        self._not_replaying.set()
         self.published = 0
         self.wake = asyncio.Event()
         self.kicked = asyncio.Event()
@@ -297,6 +303,10 @@ class _LineLink:
         }
         self.workers: list[asyncio.Task[None]] = []
 
+    @property
+    def replaying(self) -> bool:
+        return not self._not_replaying.is_set()
+
     # -- the pump: model changes -> reporter -> broker or buffer -----------------------------
     async def pump(self) -> None:
         with self.line.model.subscribe(maxsize=10_000) as changes:
@@ -306,6 +316,11 @@ class _LineLink:
             try:
                 while True:
                     _check_cancelled()
+                    if self.replaying:
+                        # Live changes wait in the reporter; the replay ends by offering the
+                        # current state again, so nothing here is lost or sent twice.
+                        await self._not_replaying.wait()
+                        continue
                     now = time.monotonic()
                     for key, sample in self.reporter.due(now):
                         await self.send(key, sample)
@@ -326,8 +341,12 @@ class _LineLink:
         # ``online`` is the birth/death topic: a bare true/false, as the last will says it.
         online = key == "online"
         payload = (b"true" if sample.value else b"false") if online else encode(sample)
+        if self.replaying:
+            # Taken from the reporter just before a replay began: the current state is offered
+            # again when the replay ends, so this adds nothing the broker will not get.
+            return
         client = self.client
-        if client is None or self.replaying or len(self.buffer):
+        if client is None:  # only while not connected: a replay drains what is in the buffer
             if not online:  # a line's state while the broker was away is history
                 self.buffer.put(topic, encode(sample, historical=True), False)
             return
@@ -387,7 +406,7 @@ class _LineLink:
                     self.kicked.clear()
                     if reader in done:
                         reader.result()  # the connection's error
-            except aiomqtt.MqttError as exc:
+            except (aiomqtt.MqttError, TimeoutError) as exc:  # a replay's publish may time out
                 _check_cancelled()
                 log.warning("mqtt %s: %s; retrying in %.1f s", self.line.name, exc, backoff)
             finally:
@@ -426,35 +445,47 @@ class _LineLink:
         raise aiomqtt.MqttError("the broker closed the connection")
 
     async def _replay(self, client: aiomqtt.Client) -> None:
-        """Send what waited, in order, before anything live."""
-        self.replaying = True
+        """Send what waited, in order, before anything live: the rows up to the newest one when
+        the replay begins (changes meanwhile wait in the reporter, so it always ends), a window
+        of them out at once (one round trip per window, not per row)."""
+        self._not_replaying.clear()
         try:
-            while True:
-                batch = self.buffer.peek(500)
+            upto = self.buffer.last_id()
+            while upto is not None:
+                batch = [row for row in self.buffer.peek(REPLAY_WINDOW) if row.id <= upto]
                 if not batch:
                     break
-                sent = None
-                try:
-                    for row in batch:
-                        await client.publish(
+                outcomes = await asyncio.gather(
+                    *(
+                        client.publish(
                             row.topic,
                             row.payload,
                             qos=self.face.settings.qos,
                             retain=row.retain,
                             timeout=self.face.settings.publish_timeout,
                         )
-                        sent = row.id
-                finally:
-                    # What went out is out: a broken replay resumes after it, never repeats it.
-                    if sent is not None:
-                        self.buffer.remove(sent)
+                        for row in batch
+                    ),
+                    return_exceptions=True,
+                )
+                # What went out is out: a broken replay resumes without it, never repeats it.
+                sent = [
+                    row.id
+                    for row, outcome in zip(batch, outcomes, strict=True)
+                    if not isinstance(outcome, BaseException)
+                ]
+                if sent:
+                    self.buffer.remove_ids(sent)
+                for outcome in outcomes:
+                    if isinstance(outcome, BaseException):
+                        raise outcome
             if self.buffer.dropped:
                 status = {"line": self.line.name, "dropped": self.buffer.dropped}
                 await client.publish(
                     self.face.topics.server("buffer"), json.dumps(status).encode(), qos=1
                 )
         finally:
-            self.replaying = False
+            self._not_replaying.set()
 
     # -- commands ---------------------------------------------------------------------------
     async def work(self, lane: _Lane) -> None:
@@ -595,7 +626,7 @@ class MqttFace:
             context = ssl.create_default_context(cafile=s.ca)
             if s.cert:
                 context.load_cert_chain(s.cert, s.key)
-        return aiomqtt.Client(
+        client = aiomqtt.Client(
             s.host,
             s.port,
             username=s.username,
@@ -609,6 +640,10 @@ class MqttFace:
             max_queued_incoming_messages=INCOMING_QUEUE,
             logger=client_log,
         )
+        # A replay has a window of publishes out on purpose: aiomqtt would warn for each one
+        # past its default threshold (10).
+        client.pending_calls_threshold = REPLAY_WINDOW + 20
+        return client
 
     async def start(self) -> None:
         for name, line in self.server.lines.items():
