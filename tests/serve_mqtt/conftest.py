@@ -113,7 +113,8 @@ def commands_config(broker: Broker, audit: Path, **commands: Any) -> ServeConfig
 async def connected(server: LineServer) -> Any:
     """The MQTT face's link of ``cell1``, once it is connected to the broker."""
     link = server.faces["mqtt"].links["cell1"]  # type: ignore[attr-defined]
-    await until(lambda: link.client is not None)
+    # The stops have a connection of their own: wait for it too when there is one.
+    await until(lambda: link.client is not None and (not link.stop_names or link.stop_client))
     return link
 
 

@@ -78,6 +78,10 @@ _STOP_NAMES = frozenset((ESTOP, "stop_job"))
 REPLAY_WINDOW = 100
 """Buffered rows a replay has out at once: one round trip per window, not one per row (paho
 keeps its own in-flight limit beneath), and a bounded number of publishes waiting."""
+ANSWER_QUEUE = 64
+"""Refusals the readers made, waiting for their answer to be published (per line). A reader
+never waits on an answer's QoS 1 round trip; past this bound an answer is dropped (counted and
+logged; the refusal is still audited)."""
 INCOMING_QUEUE = 256
 """aiomqtt's own queue of received messages per connection. Past it the client discards what
 arrives (logged once in a while: QueueFullFilter), so a flood costs bounded memory even before
@@ -302,6 +306,15 @@ class _LineLink:
             "stops": _Lane(settings.max_pending),
         }
         self.workers: list[asyncio.Task[None]] = []
+        self.stop_names = _STOP_NAMES & settings.commands
+        """The enabled stops: they come in on a connection of their own (its own subscription
+        and queue), so a flood of other commands never fills the queue a stop waits in."""
+        self.stop_client: aiomqtt.Client | None = None
+        self.answers: asyncio.Queue[
+            tuple[aiomqtt.Client, aiomqtt.Message, str, dict[str, Any], Any]
+        ] = asyncio.Queue(maxsize=ANSWER_QUEUE)
+        self.answers_dropped = 0
+        self._answers_logged = 0.0
 
     @property
     def replaying(self) -> bool:
@@ -414,23 +427,53 @@ class _LineLink:
             await asyncio.sleep(backoff)
             backoff = min(backoff * 2, self.face.settings.reconnect_max)
 
-    async def _read(self, client: aiomqtt.Client) -> None:
+    async def stop_loop(self) -> None:
+        """The stops' own connection: subscribed to the enabled stops' topics only, so its
+        client queue holds stops alone, whatever floods the other command topics."""
+        settings = self.face.settings
+        backoff = 0.5
+        while True:
+            try:
+                # No last will: this connection's end says nothing about the line.
+                async with self.face.client(
+                    f"{settings.client_id}-{self.line.name}-stops", None
+                ) as client:
+                    backoff = 0.5
+                    for name in sorted(self.stop_names):
+                        await client.subscribe(
+                            self.face.topics.command(self.line.name, name),
+                            options=_command_options(),
+                        )
+                    self.stop_client = client
+                    await self._read(client, stops=True)
+            except (aiomqtt.MqttError, TimeoutError) as exc:
+                _check_cancelled()
+                log.warning("mqtt %s (stops): %s; retrying in %.1f s", self.line.name, exc, backoff)
+            finally:
+                self.stop_client = None
+            await asyncio.sleep(backoff)
+            backoff = min(backoff * 2, self.face.settings.reconnect_max)
+
+    async def _read(self, client: aiomqtt.Client, *, stops: bool = False) -> None:
         """Take command messages until the connection fails (MqttError). Nothing here waits on
-        the line: a message goes to its lane, or is refused at once (not enabled, busy)."""
+        the line nor on the broker: a message goes to its lane, or is refused at once (not
+        enabled, busy) with its answer left to the answer task."""
         async for message in client.messages:
             name = self.face.topics.command_name(str(message.topic), self.line.name)
             if name is None:
                 continue
+            if not stops and name in self.stop_names:
+                continue  # the stops' own connection takes it (and answers it)
             if message.retain:
                 problem = UsageError(
                     "a retained command message is refused (it would run again at every"
                     " reconnect); publish commands without retain"
                 )
-                await self._refuse(client, message, name, problem)
+                self._refuse_later(client, message, name, problem)
                 continue
             if name not in self.face.settings.commands:
                 problem = UsageError(f"command {_short(name)!r} is not enabled on this server")
-                await self._refuse(client, message, name, problem)
+                self._refuse_later(client, message, name, problem)
                 continue
             lane = self.lanes["stops" if name in _STOP_NAMES else "commands"]
             if lane.pending >= lane.limit:
@@ -438,7 +481,7 @@ class _LineLink:
                     f"busy: {lane.pending} MQTT commands are waiting or running on line"
                     f" {self.line.name} (the limit); not run, send it again later"
                 )
-                await self._refuse(client, message, name, busy)
+                self._refuse_later(client, message, name, busy)
                 continue
             lane.pending += 1
             lane.queue.put_nowait((client, message, name))
@@ -529,6 +572,34 @@ class _LineLink:
         except RobostarError:
             return None
 
+    async def answer_loop(self) -> None:
+        """Publish the readers' refusals, one at a time, away from the readers."""
+        while True:
+            client, message, reply_to, body, request_id = await self.answers.get()
+            await self._reply(client, message, reply_to, body, request_id)
+
+    def _refuse_later(
+        self, client: aiomqtt.Client, message: aiomqtt.Message, name: str, problem: RobostarError
+    ) -> None:
+        """A reader's refusal: audited now, answered by the answer task (dropped, counted,
+        when too many wait). Never raises nor waits."""
+        answer = self._refusal(message, name, problem)
+        if answer is None:
+            return
+        try:
+            self.answers.put_nowait((client, message, *answer))
+        except asyncio.QueueFull:
+            self.answers_dropped += 1
+            now = time.monotonic()
+            if now >= self._answers_logged + 10.0:
+                self._answers_logged = now
+                log.warning(
+                    "mqtt %s: too many refusals to answer; %d answer(s) dropped so far"
+                    " (each refusal is still audited)",
+                    self.line.name,
+                    self.answers_dropped,
+                )
+
     async def _refuse(
         self,
         client: aiomqtt.Client,
@@ -538,8 +609,21 @@ class _LineLink:
         command: Command[Any] | None = None,
         request_id: Any = None,
     ) -> None:
-        """Audit a refusal of the face's own and answer it. Never raises: the reader calls it,
-        and the reader must live as long as the connection."""
+        """A worker's refusal: audited and answered."""
+        answer = self._refusal(message, name, problem, command, request_id)
+        if answer is not None:
+            await self._reply(client, message, *answer)
+
+    def _refusal(
+        self,
+        message: aiomqtt.Message,
+        name: str,
+        problem: RobostarError,
+        command: Command[Any] | None = None,
+        request_id: Any = None,
+    ) -> tuple[str, dict[str, Any], Any] | None:
+        """Audit a refusal of the face's own; the answer to send (None: none can be made).
+        Never raises: the readers call it, and a reader must live as long as its connection."""
         try:
             what = command if command is not None else f"cmd/{_short(name)}"
             self.line.record(what, self.face.who, f"refused: {problem}")
@@ -552,8 +636,8 @@ class _LineLink:
             body = {"ok": False, "error": str(problem), "kind": type(problem).__name__}
         except Exception:
             log.exception("mqtt %s: a refusal was not answered", self.line.name)
-            return
-        await self._reply(client, message, reply_to, body, request_id)
+            return None
+        return reply_to, body, request_id
 
     async def _command(self, client: aiomqtt.Client, message: aiomqtt.Message, name: str) -> None:
         reply_to, topic_problem = self._reply_topic(message, name)
@@ -619,7 +703,7 @@ class MqttFace:
         self.who = Who(settings.client_id, "mqtt")
         """The name commands run and are audited under (MQTT does not say who sent one)."""
 
-    def client(self, identifier: str, will_topic: str) -> aiomqtt.Client:
+    def client(self, identifier: str, will_topic: str | None) -> aiomqtt.Client:
         s = self.settings
         context = None
         if s.tls:
@@ -633,7 +717,7 @@ class MqttFace:
             password=s.password,
             identifier=identifier,
             protocol=aiomqtt.ProtocolVersion.V5,
-            will=aiomqtt.Will(will_topic, b"false", qos=1, retain=True),
+            will=None if will_topic is None else aiomqtt.Will(will_topic, b"false", 1, True),
             tls_context=context,
             keepalive=10,
             timeout=s.publish_timeout,
@@ -656,6 +740,9 @@ class MqttFace:
                     worker = asyncio.create_task(link.work(lane))
                     link.workers.append(worker)
                     self.tasks.add(worker)
+                self.tasks.add(asyncio.create_task(link.answer_loop()))
+            if link.stop_names:
+                self.tasks.add(asyncio.create_task(link.stop_loop()))
         self.tasks.add(asyncio.create_task(self._server_presence()))
         log.info(
             "mqtt face: %d line(s) to %s:%d",

@@ -66,6 +66,10 @@ class Topics:
         """The subscription filter for a line's commands."""
         return f"{self.prefix}/{line}/cmd/+"
 
+    def command(self, line: str, name: str) -> str:
+        """One command's topic (the stops' own subscriptions)."""
+        return f"{self.prefix}/{line}/cmd/{name}"
+
     def command_name(self, topic: str, line: str) -> str | None:
         head = f"{self.prefix}/{line}/cmd/"
         if not topic.startswith(head):
