@@ -15,12 +15,14 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import functools
 import json
 import logging
 import os
+import sqlite3
 import ssl
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Coroutine, Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 from urllib.parse import urlsplit
@@ -315,6 +317,9 @@ class _LineLink:
         ] = asyncio.Queue(maxsize=ANSWER_QUEUE)
         self.answers_dropped = 0
         self._answers_logged = 0.0
+        self.buffer_lost = 0
+        """Changes the buffer could not take (an SQLite error: a full disk): lost, counted."""
+        self._lost_logged = 0.0
 
     @property
     def replaying(self) -> bool:
@@ -361,7 +366,7 @@ class _LineLink:
         client = self.client
         if client is None:  # only while not connected: a replay drains what is in the buffer
             if not online:  # a line's state while the broker was away is history
-                self.buffer.put(topic, encode(sample, historical=True), False)
+                self._keep(topic, encode(sample, historical=True))
             return
         try:
             await client.publish(
@@ -378,7 +383,24 @@ class _LineLink:
             self.client = None
             self.kicked.set()
             if not online:
-                self.buffer.put(topic, encode(sample, historical=True), False)
+                self._keep(topic, encode(sample, historical=True))
+
+    def _keep(self, topic: str, payload: bytes) -> None:
+        """Buffer a change for the replay. An SQLite error (a full disk) loses this change,
+        counted and logged, rather than ending the pump (and every later value with it)."""
+        try:
+            self.buffer.put(topic, payload, False)
+        except sqlite3.Error as exc:
+            self.buffer_lost += 1
+            now = time.monotonic()
+            if now >= self._lost_logged + 10.0:
+                self._lost_logged = now
+                log.error(
+                    "mqtt %s: a change was not buffered (%s); %d lost so far",
+                    self.line.name,
+                    exc,
+                    self.buffer_lost,
+                )
 
     # -- the connection ------------------------------------------------------------------------
     async def connect_loop(self) -> None:
@@ -522,8 +544,12 @@ class _LineLink:
                 for outcome in outcomes:
                     if isinstance(outcome, BaseException):
                         raise outcome
-            if self.buffer.dropped:
-                status = {"line": self.line.name, "dropped": self.buffer.dropped}
+            if self.buffer.dropped or self.buffer_lost:
+                status = {
+                    "line": self.line.name,
+                    "dropped": self.buffer.dropped,
+                    "not_buffered": self.buffer_lost,
+                }
                 await client.publish(
                     self.face.topics.server("buffer"), json.dumps(status).encode(), qos=1
                 )
@@ -699,6 +725,7 @@ class MqttFace:
         self.topics = Topics(settings.prefix)
         self.links: dict[str, _LineLink] = {}
         self.tasks: set[asyncio.Task[Any]] = set()
+        self._stopping = False
         self.presence: aiomqtt.Client | None = None
         self.who = Who(settings.client_id, "mqtt")
         """The name commands run and are audited under (MQTT does not say who sent one)."""
@@ -729,21 +756,52 @@ class MqttFace:
         client.pending_calls_threshold = REPLAY_WINDOW + 20
         return client
 
+    def _spawn(
+        self,
+        name: str,
+        job: Callable[[], Coroutine[Any, Any, None]],
+        group: list[asyncio.Task[None]] | None = None,
+    ) -> None:
+        """Run ``job()`` as one of the face's tasks, for as long as the face runs: a task that
+        ends by an error (a bug, an error nobody foresaw) would otherwise end a line's values
+        or commands for good, silently. It is logged and started again a second later."""
+        task = asyncio.create_task(job(), name=f"mqtt {name}")
+        self.tasks.add(task)
+        if group is not None:
+            group.append(task)
+
+        def ended(done: asyncio.Task[None]) -> None:
+            self.tasks.discard(done)
+            if group is not None and done in group:
+                group.remove(done)
+            if self._stopping or done.cancelled():
+                return
+            exc = done.exception()
+            log.error(
+                "mqtt face: task %s ended (%r); starting it again in 1 s",
+                name,
+                exc,
+                exc_info=exc,
+            )
+            restart = lambda: None if self._stopping else self._spawn(name, job, group)  # noqa: E731
+            asyncio.get_running_loop().call_later(1.0, restart)
+
+        task.add_done_callback(ended)
+
     async def start(self) -> None:
         for name, line in self.server.lines.items():
             link = self.links[name] = _LineLink(self, line)
-            for job in (link.pump(), link.connect_loop()):
-                task = asyncio.create_task(job)
-                self.tasks.add(task)
+            self._spawn(f"{name} pump", link.pump)
+            self._spawn(f"{name} connection", link.connect_loop)
             if self.settings.commands:
-                for lane in link.lanes.values():
-                    worker = asyncio.create_task(link.work(lane))
-                    link.workers.append(worker)
-                    self.tasks.add(worker)
-                self.tasks.add(asyncio.create_task(link.answer_loop()))
+                for lane_name, lane in link.lanes.items():
+                    self._spawn(
+                        f"{name} {lane_name}", functools.partial(link.work, lane), link.workers
+                    )
+                self._spawn(f"{name} answers", link.answer_loop)
             if link.stop_names:
-                self.tasks.add(asyncio.create_task(link.stop_loop()))
-        self.tasks.add(asyncio.create_task(self._server_presence()))
+                self._spawn(f"{name} stops connection", link.stop_loop)
+        self._spawn("server presence", self._server_presence)
         log.info(
             "mqtt face: %d line(s) to %s:%d",
             len(self.links),
@@ -787,9 +845,11 @@ class MqttFace:
                 await presence.publish(
                     self.topics.server("online"), b"false", qos=1, retain=True, timeout=2.0
                 )
-        for task in list(self.tasks):
+        self._stopping = True  # no task is started again from here
+        tasks = list(self.tasks)
+        for task in tasks:
             task.cancel()
-        await asyncio.gather(*self.tasks, return_exceptions=True)
+        await asyncio.gather(*tasks, return_exceptions=True)
         self.tasks.clear()
         for link in self.links.values():
             link.buffer.close()
