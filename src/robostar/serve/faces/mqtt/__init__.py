@@ -576,7 +576,7 @@ class _LineLink:
         requested = getattr(message.properties, "ResponseTopic", None)
         if requested is None:
             return default, None
-        problem = response_topic_problem(str(requested))
+        problem = response_topic_problem(str(requested), self.face.topics.prefix)
         if problem is not None:
             return default, f"the response topic {_short(str(requested))!r} {problem}"
         return str(requested), None
