@@ -80,6 +80,9 @@ _STOP_NAMES = frozenset((ESTOP, "stop_job"))
 REPLAY_WINDOW = 100
 """Buffered rows a replay has out at once: one round trip per window, not one per row (paho
 keeps its own in-flight limit beneath), and a bounded number of publishes waiting."""
+PACKET_OVERHEAD = 65_535 + 64
+"""What the Maximum Packet Size the face announces allows beyond ``max_payload``: a topic
+name's most (65,535 bytes) and a fixed header's and a few properties' worth."""
 ANSWER_QUEUE = 64
 """Refusals the readers made, waiting for their answer to be published (per line). A reader
 never waits on an answer's QoS 1 round trip; past this bound an answer is dropped (counted and
@@ -737,6 +740,12 @@ class MqttFace:
             context = ssl.create_default_context(cafile=s.ca)
             if s.cert:
                 context.load_cert_chain(s.cert, s.key)
+        # MQTT 5 Maximum Packet Size: the broker drops a message bigger than this instead of
+        # sending it, so max_payload bounds memory before a message is read (else a flood of
+        # big commands fills the client's queue with them). Room for the topic and properties
+        # on top; a command past it gets no answer and no audit (the broker drops it).
+        connect = Properties(PacketTypes.CONNECT)  # type: ignore[no-untyped-call]
+        connect.MaximumPacketSize = s.max_payload + PACKET_OVERHEAD
         client = aiomqtt.Client(
             s.host,
             s.port,
@@ -750,6 +759,7 @@ class MqttFace:
             timeout=s.publish_timeout,
             max_queued_incoming_messages=INCOMING_QUEUE,
             logger=client_log,
+            properties=connect,
         )
         # A replay has a window of publishes out on purpose: aiomqtt would warn for each one
         # past its default threshold (10).
