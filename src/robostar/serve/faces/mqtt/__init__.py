@@ -382,9 +382,19 @@ class _LineLink:
             self.published += 1
         except (aiomqtt.MqttError, TimeoutError) as exc:
             _check_cancelled()
-            log.warning("mqtt %s: publish failed (%s); buffering", self.line.name, exc)
-            self.client = None
-            self.kicked.set()
+            if self.client is client:
+                log.warning("mqtt %s: publish failed (%s); buffering", self.line.name, exc)
+                self.client = None
+                self.kicked.set()
+            elif self.client is not None or self.replaying:
+                # A late failure of a connection that is already gone (its publish timed out
+                # after the face connected again): the new connection is fine, and it sends
+                # the current state anyway, so this change is neither buffered nor a reason to
+                # drop it.
+                log.info(
+                    "mqtt %s: a publish on the old connection failed (%s)", self.line.name, exc
+                )
+                return
             if not online:
                 self._keep(topic, encode(sample, historical=True))
 
@@ -417,6 +427,9 @@ class _LineLink:
                     f"{settings.client_id}-{self.line.name}", online
                 ) as client:
                     backoff = 0.5
+                    # A kick is about the connection before this one (a publish that failed
+                    # while there was none): it must not end this one.
+                    self.kicked.clear()
                     up = b"true" if self.line.up else b"false"
                     await client.publish(online, up, qos=1, retain=True)
                     if settings.commands:
