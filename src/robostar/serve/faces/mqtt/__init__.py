@@ -426,6 +426,9 @@ class _LineLink:
                 async with self.face.client(
                     f"{settings.client_id}-{self.line.name}", online
                 ) as client:
+                    # A stop that raced the connect may have been swallowed (aiomqtt's
+                    # wait_for on 3.11): look before waiting on this connection for good.
+                    _check_cancelled()
                     backoff = 0.5
                     # A kick is about the connection before this one (a publish that failed
                     # while there was none): it must not end this one.
@@ -445,6 +448,7 @@ class _LineLink:
                     log.info(
                         "mqtt %s: connected to %s:%d", self.line.name, settings.host, settings.port
                     )
+                    _check_cancelled()  # (the publishes and the replay above use wait_for too)
                     reader = asyncio.create_task(self._read(client))
                     kicked = asyncio.create_task(self.kicked.wait())
                     try:
@@ -476,6 +480,7 @@ class _LineLink:
                 async with self.face.client(
                     f"{settings.client_id}-{self.line.name}-stops", None
                 ) as client:
+                    _check_cancelled()  # a stop swallowed by the connect (see connect_loop)
                     backoff = 0.5
                     for name in sorted(self.stop_names):
                         await client.subscribe(
@@ -483,6 +488,7 @@ class _LineLink:
                             options=_command_options(),
                         )
                     self.stop_client = client
+                    _check_cancelled()
                     await self._read(client, stops=True)
             except (aiomqtt.MqttError, TimeoutError) as exc:
                 _check_cancelled()
@@ -841,6 +847,7 @@ class MqttFace:
                     backoff = 0.5
                     await client.publish(online, b"true", qos=1, retain=True)
                     self.presence = client
+                    _check_cancelled()  # a stop swallowed by the connect (see connect_loop)
                     async for _ in client.messages:
                         pass
             except aiomqtt.MqttError:
