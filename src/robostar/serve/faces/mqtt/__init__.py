@@ -174,20 +174,31 @@ def settings_from(options: Mapping[str, Any]) -> MqttSettings:
         commands.update(allow)
         if commands_option.get("estop", False) is True:
             commands.add(ESTOP)
+    cert, key, ca = options.get("cert"), options.get("key"), options.get("ca")
+    if (cert or key) and not (tls or ca):
+        # Only mqtts:// or ca turn TLS on: a certificate on an mqtt:// URL would be silently
+        # unused, and the face would connect in clear, its password too.
+        # (Named by host and port only: the URL may hold a password.)
+        raise UsageError(
+            f"mqtt.{'cert' if cert else 'key'}: client certificates need TLS: use"
+            f" mqtts://{parts.hostname}:{port} (or set mqtt.ca); an mqtt:// URL connects in clear"
+        )
+    if key and not cert:
+        raise UsageError("mqtt.key: a key without mqtt.cert (the client certificate) is unused")
     qos = options.get("qos", 1)
     if qos not in (0, 1, 2):
         raise UsageError(f"mqtt.qos: {qos!r} is not 0, 1 or 2")
     return MqttSettings(
         host=parts.hostname,
         port=port,
-        tls=tls or bool(options.get("ca")),
+        tls=tls or bool(ca),
         prefix=check_prefix(str(options.get("prefix", "robostar"))),
         client_id=str(options.get("client_id", "robostar")),
         username=options.get("username") or parts.username,
         password=password or parts.password,
-        ca=options.get("ca"),
-        cert=options.get("cert"),
-        key=options.get("key"),
+        ca=ca,
+        cert=cert,
+        key=key,
         qos=int(qos),
         deadband=_number(options, "deadband", 0.01, 0.0),
         rate=_number(options, "rate", 50.0, 0.1),
