@@ -113,7 +113,8 @@ def commands_config(broker: Broker, audit: Path, **commands: Any) -> ServeConfig
 async def connected(server: LineServer) -> Any:
     """The MQTT face's link of ``cell1``, once it is connected to the broker."""
     link = server.faces["mqtt"].links["cell1"]  # type: ignore[attr-defined]
-    await until(lambda: link.client is not None)
+    # The stops have a connection of their own: wait for it too when there is one.
+    await until(lambda: link.client is not None and (not link.stop_names or link.stop_client))
     return link
 
 
@@ -180,3 +181,78 @@ class Requester:
             if correlation is not None:
                 props.CorrelationData = correlation
         await self.client.publish(f"robostar/cell1/cmd/{name}", payload, qos=qos, properties=props)
+
+
+class LatencyProxy:
+    """A TCP proxy on loopback that delays every chunk by ``delay`` seconds each way: a broker
+    across a plant network, where a round trip per message is what costs."""
+
+    def __init__(self, upstream_port: int, delay: float) -> None:
+        self.upstream_port = upstream_port
+        self.delay = delay
+        self.port = 0
+        self._server: asyncio.Server | None = None
+        self._tasks: set[asyncio.Task[None]] = set()
+
+    @property
+    def url(self) -> str:
+        return f"mqtt://127.0.0.1:{self.port}"
+
+    async def start(self) -> None:
+        self._server = await asyncio.start_server(self._serve, "127.0.0.1", 0)
+        self.port = int(self._server.sockets[0].getsockname()[1])
+
+    async def stop(self) -> None:
+        if self._server is not None:
+            self._server.close()
+        for task in list(self._tasks):
+            task.cancel()
+        await asyncio.gather(*self._tasks, return_exceptions=True)
+        await asyncio.sleep(0)
+
+    async def _serve(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+        task = asyncio.current_task()
+        assert task is not None
+        self._tasks.add(task)
+        try:
+            try:
+                up_reader, up_writer = await asyncio.open_connection(
+                    "127.0.0.1", self.upstream_port
+                )
+            except OSError:
+                writer.close()
+                return
+            await asyncio.gather(
+                self._pipe(reader, up_writer), self._pipe(up_reader, writer), return_exceptions=True
+            )
+        except asyncio.CancelledError:
+            # Stopped: end quietly (asyncio's stream callback reports a cancelled handler).
+            writer.close()
+        finally:
+            self._tasks.discard(task)
+
+    async def _pipe(self, source: asyncio.StreamReader, sink: asyncio.StreamWriter) -> None:
+        loop = asyncio.get_running_loop()
+        chunks: asyncio.Queue[tuple[float, bytes]] = asyncio.Queue()
+
+        async def later() -> None:
+            while True:
+                due, data = await chunks.get()
+                if not data:
+                    break
+                await asyncio.sleep(max(0.0, due - loop.time()))
+                sink.write(data)
+                await sink.drain()
+
+        writer = asyncio.create_task(later())
+        try:
+            while data := await source.read(65536):
+                chunks.put_nowait((loop.time() + self.delay, data))
+        except OSError:
+            pass
+        finally:
+            chunks.put_nowait((0.0, b""))
+            with contextlib.suppress(OSError, asyncio.CancelledError):
+                await writer
+            writer.cancel()
+            sink.close()

@@ -15,12 +15,14 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import functools
 import json
 import logging
 import os
+import sqlite3
 import ssl
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Coroutine, Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 from urllib.parse import urlsplit
@@ -28,6 +30,7 @@ from urllib.parse import urlsplit
 import aiomqtt
 from paho.mqtt.packettypes import PacketTypes
 from paho.mqtt.properties import Properties
+from paho.mqtt.subscribeoptions import SubscribeOptions
 
 from robostar.commands.base import Command
 from robostar.errors import RobostarError, UsageError
@@ -74,6 +77,16 @@ _OPTIONS = frozenset(
 _COMMAND_OPTIONS = frozenset(("enabled", "allow", "estop", "max_pending", "max_payload"))
 _STOP_NAMES = frozenset((ESTOP, "stop_job"))
 """Commands that jump every queue at the line: they have their own lane in the face too."""
+REPLAY_WINDOW = 100
+"""Buffered rows a replay has out at once: one round trip per window, not one per row (paho
+keeps its own in-flight limit beneath), and a bounded number of publishes waiting."""
+PACKET_OVERHEAD = 65_535 + 64
+"""What the Maximum Packet Size the face announces allows beyond ``max_payload``: a topic
+name's most (65,535 bytes) and a fixed header's and a few properties' worth."""
+ANSWER_QUEUE = 64
+"""Refusals the readers made, waiting for their answer to be published (per line). A reader
+never waits on an answer's QoS 1 round trip; past this bound an answer is dropped (counted and
+logged; the refusal is still audited)."""
 INCOMING_QUEUE = 256
 """aiomqtt's own queue of received messages per connection. Past it the client discards what
 arrives (logged once in a while: QueueFullFilter), so a flood costs bounded memory even before
@@ -161,20 +174,31 @@ def settings_from(options: Mapping[str, Any]) -> MqttSettings:
         commands.update(allow)
         if commands_option.get("estop", False) is True:
             commands.add(ESTOP)
+    cert, key, ca = options.get("cert"), options.get("key"), options.get("ca")
+    if (cert or key) and not (tls or ca):
+        # Only mqtts:// or ca turn TLS on: a certificate on an mqtt:// URL would be silently
+        # unused, and the face would connect in clear, its password too.
+        # (Named by host and port only: the URL may hold a password.)
+        raise UsageError(
+            f"mqtt.{'cert' if cert else 'key'}: client certificates need TLS: use"
+            f" mqtts://{parts.hostname}:{port} (or set mqtt.ca); an mqtt:// URL connects in clear"
+        )
+    if key and not cert:
+        raise UsageError("mqtt.key: a key without mqtt.cert (the client certificate) is unused")
     qos = options.get("qos", 1)
     if qos not in (0, 1, 2):
         raise UsageError(f"mqtt.qos: {qos!r} is not 0, 1 or 2")
     return MqttSettings(
         host=parts.hostname,
         port=port,
-        tls=tls or bool(options.get("ca")),
+        tls=tls or bool(ca),
         prefix=check_prefix(str(options.get("prefix", "robostar"))),
         client_id=str(options.get("client_id", "robostar")),
         username=options.get("username") or parts.username,
         password=password or parts.password,
-        ca=options.get("ca"),
-        cert=options.get("cert"),
-        key=options.get("key"),
+        ca=ca,
+        cert=cert,
+        key=key,
         qos=int(qos),
         deadband=_number(options, "deadband", 0.01, 0.0),
         rate=_number(options, "rate", 50.0, 0.1),
@@ -206,6 +230,18 @@ async def _wait_event(event: asyncio.Event, timeout: float | None) -> None:
         await asyncio.wait({waiter}, timeout=timeout)
     finally:
         waiter.cancel()
+
+
+def _command_options() -> SubscribeOptions:
+    """How the face subscribes to command topics. A retained command would run again at every
+    reconnect and restart: the broker is told not to send retained messages on subscribe
+    (retain handling 2), and to keep the retain flag as published (so a retained command that
+    arrives live is seen as such, and refused)."""
+    return SubscribeOptions(
+        qos=1,
+        retainAsPublished=True,
+        retainHandling=SubscribeOptions.RETAIN_DO_NOT_SEND,
+    )
 
 
 def _short(text: str, size: int = 80) -> str:
@@ -273,7 +309,10 @@ class _LineLink:
         self.buffer = StoreAndForward(path, max_rows=settings.buffer_rows)
         self.reporter = Reporter(deadband=settings.deadband, max_rate=settings.rate)
         self.client: aiomqtt.Client | None = None
-        self.replaying = False
+        self._not_replaying = asyncio.Event()
+        """Clear while a replay runs: the pump then leaves changes in the reporter (the latest
+        per topic) instead of adding them to the buffer behind the replay."""
+        self._not_replaying.set()
         self.published = 0
         self.wake = asyncio.Event()
         self.kicked = asyncio.Event()
@@ -283,6 +322,22 @@ class _LineLink:
             "stops": _Lane(settings.max_pending),
         }
         self.workers: list[asyncio.Task[None]] = []
+        self.stop_names = _STOP_NAMES & settings.commands
+        """The enabled stops: they come in on a connection of their own (its own subscription
+        and queue), so a flood of other commands never fills the queue a stop waits in."""
+        self.stop_client: aiomqtt.Client | None = None
+        self.answers: asyncio.Queue[
+            tuple[aiomqtt.Client, aiomqtt.Message, str, dict[str, Any], Any]
+        ] = asyncio.Queue(maxsize=ANSWER_QUEUE)
+        self.answers_dropped = 0
+        self._answers_logged = 0.0
+        self.buffer_lost = 0
+        """Changes the buffer could not take (an SQLite error: a full disk): lost, counted."""
+        self._lost_logged = 0.0
+
+    @property
+    def replaying(self) -> bool:
+        return not self._not_replaying.is_set()
 
     # -- the pump: model changes -> reporter -> broker or buffer -----------------------------
     async def pump(self) -> None:
@@ -293,6 +348,11 @@ class _LineLink:
             try:
                 while True:
                     _check_cancelled()
+                    if self.replaying:
+                        # Live changes wait in the reporter; the replay ends by offering the
+                        # current state again, so nothing here is lost or sent twice.
+                        await self._not_replaying.wait()
+                        continue
                     now = time.monotonic()
                     for key, sample in self.reporter.due(now):
                         await self.send(key, sample)
@@ -313,10 +373,14 @@ class _LineLink:
         # ``online`` is the birth/death topic: a bare true/false, as the last will says it.
         online = key == "online"
         payload = (b"true" if sample.value else b"false") if online else encode(sample)
+        if self.replaying:
+            # Taken from the reporter just before a replay began: the current state is offered
+            # again when the replay ends, so this adds nothing the broker will not get.
+            return
         client = self.client
-        if client is None or self.replaying or len(self.buffer):
+        if client is None:  # only while not connected: a replay drains what is in the buffer
             if not online:  # a line's state while the broker was away is history
-                self.buffer.put(topic, encode(sample, historical=True), False)
+                self._keep(topic, encode(sample, historical=True))
             return
         try:
             await client.publish(
@@ -329,11 +393,38 @@ class _LineLink:
             self.published += 1
         except (aiomqtt.MqttError, TimeoutError) as exc:
             _check_cancelled()
-            log.warning("mqtt %s: publish failed (%s); buffering", self.line.name, exc)
-            self.client = None
-            self.kicked.set()
+            if self.client is client:
+                log.warning("mqtt %s: publish failed (%s); buffering", self.line.name, exc)
+                self.client = None
+                self.kicked.set()
+            elif self.client is not None or self.replaying:
+                # A late failure of a connection that is already gone (its publish timed out
+                # after the face connected again): the new connection is fine, and it sends
+                # the current state anyway, so this change is neither buffered nor a reason to
+                # drop it.
+                log.info(
+                    "mqtt %s: a publish on the old connection failed (%s)", self.line.name, exc
+                )
+                return
             if not online:
-                self.buffer.put(topic, encode(sample, historical=True), False)
+                self._keep(topic, encode(sample, historical=True))
+
+    def _keep(self, topic: str, payload: bytes) -> None:
+        """Buffer a change for the replay. An SQLite error (a full disk) loses this change,
+        counted and logged, rather than ending the pump (and every later value with it)."""
+        try:
+            self.buffer.put(topic, payload, False)
+        except sqlite3.Error as exc:
+            self.buffer_lost += 1
+            now = time.monotonic()
+            if now >= self._lost_logged + 10.0:
+                self._lost_logged = now
+                log.error(
+                    "mqtt %s: a change was not buffered (%s); %d lost so far",
+                    self.line.name,
+                    exc,
+                    self.buffer_lost,
+                )
 
     # -- the connection ------------------------------------------------------------------------
     async def connect_loop(self) -> None:
@@ -346,11 +437,19 @@ class _LineLink:
                 async with self.face.client(
                     f"{settings.client_id}-{self.line.name}", online
                 ) as client:
+                    # A stop that raced the connect may have been swallowed (aiomqtt's
+                    # wait_for on 3.11): look before waiting on this connection for good.
+                    _check_cancelled()
                     backoff = 0.5
+                    # A kick is about the connection before this one (a publish that failed
+                    # while there was none): it must not end this one.
+                    self.kicked.clear()
                     up = b"true" if self.line.up else b"false"
                     await client.publish(online, up, qos=1, retain=True)
                     if settings.commands:
-                        await client.subscribe(topics.commands(self.line.name), qos=1)
+                        await client.subscribe(
+                            topics.commands(self.line.name), options=_command_options()
+                        )
                     await self._replay(client)
                     self.client = client
                     self.reporter.forget()  # the current state goes out again, retained
@@ -360,6 +459,7 @@ class _LineLink:
                     log.info(
                         "mqtt %s: connected to %s:%d", self.line.name, settings.host, settings.port
                     )
+                    _check_cancelled()  # (the publishes and the replay above use wait_for too)
                     reader = asyncio.create_task(self._read(client))
                     kicked = asyncio.create_task(self.kicked.wait())
                     try:
@@ -372,7 +472,7 @@ class _LineLink:
                     self.kicked.clear()
                     if reader in done:
                         reader.result()  # the connection's error
-            except aiomqtt.MqttError as exc:
+            except (aiomqtt.MqttError, TimeoutError) as exc:  # a replay's publish may time out
                 _check_cancelled()
                 log.warning("mqtt %s: %s; retrying in %.1f s", self.line.name, exc, backoff)
             finally:
@@ -380,16 +480,55 @@ class _LineLink:
             await asyncio.sleep(backoff)
             backoff = min(backoff * 2, self.face.settings.reconnect_max)
 
-    async def _read(self, client: aiomqtt.Client) -> None:
+    async def stop_loop(self) -> None:
+        """The stops' own connection: subscribed to the enabled stops' topics only, so its
+        client queue holds stops alone, whatever floods the other command topics."""
+        settings = self.face.settings
+        backoff = 0.5
+        while True:
+            try:
+                # No last will: this connection's end says nothing about the line.
+                async with self.face.client(
+                    f"{settings.client_id}-{self.line.name}-stops", None
+                ) as client:
+                    _check_cancelled()  # a stop swallowed by the connect (see connect_loop)
+                    backoff = 0.5
+                    for name in sorted(self.stop_names):
+                        await client.subscribe(
+                            self.face.topics.command(self.line.name, name),
+                            options=_command_options(),
+                        )
+                    self.stop_client = client
+                    _check_cancelled()
+                    await self._read(client, stops=True)
+            except (aiomqtt.MqttError, TimeoutError) as exc:
+                _check_cancelled()
+                log.warning("mqtt %s (stops): %s; retrying in %.1f s", self.line.name, exc, backoff)
+            finally:
+                self.stop_client = None
+            await asyncio.sleep(backoff)
+            backoff = min(backoff * 2, self.face.settings.reconnect_max)
+
+    async def _read(self, client: aiomqtt.Client, *, stops: bool = False) -> None:
         """Take command messages until the connection fails (MqttError). Nothing here waits on
-        the line: a message goes to its lane, or is refused at once (not enabled, busy)."""
+        the line nor on the broker: a message goes to its lane, or is refused at once (not
+        enabled, busy) with its answer left to the answer task."""
         async for message in client.messages:
             name = self.face.topics.command_name(str(message.topic), self.line.name)
             if name is None:
                 continue
+            if not stops and name in self.stop_names:
+                continue  # the stops' own connection takes it (and answers it)
+            if message.retain:
+                problem = UsageError(
+                    "a retained command message is refused (it would run again at every"
+                    " reconnect); publish commands without retain"
+                )
+                self._refuse_later(client, message, name, problem)
+                continue
             if name not in self.face.settings.commands:
                 problem = UsageError(f"command {_short(name)!r} is not enabled on this server")
-                await self._refuse(client, message, name, problem)
+                self._refuse_later(client, message, name, problem)
                 continue
             lane = self.lanes["stops" if name in _STOP_NAMES else "commands"]
             if lane.pending >= lane.limit:
@@ -397,42 +536,58 @@ class _LineLink:
                     f"busy: {lane.pending} MQTT commands are waiting or running on line"
                     f" {self.line.name} (the limit); not run, send it again later"
                 )
-                await self._refuse(client, message, name, busy)
+                self._refuse_later(client, message, name, busy)
                 continue
             lane.pending += 1
             lane.queue.put_nowait((client, message, name))
         raise aiomqtt.MqttError("the broker closed the connection")
 
     async def _replay(self, client: aiomqtt.Client) -> None:
-        """Send what waited, in order, before anything live."""
-        self.replaying = True
+        """Send what waited, in order, before anything live: the rows up to the newest one when
+        the replay begins (changes meanwhile wait in the reporter, so it always ends), a window
+        of them out at once (one round trip per window, not per row)."""
+        self._not_replaying.clear()
         try:
-            while True:
-                batch = self.buffer.peek(500)
+            upto = self.buffer.last_id()
+            while upto is not None:
+                batch = [row for row in self.buffer.peek(REPLAY_WINDOW) if row.id <= upto]
                 if not batch:
                     break
-                sent = None
-                try:
-                    for row in batch:
-                        await client.publish(
+                outcomes = await asyncio.gather(
+                    *(
+                        client.publish(
                             row.topic,
                             row.payload,
                             qos=self.face.settings.qos,
                             retain=row.retain,
                             timeout=self.face.settings.publish_timeout,
                         )
-                        sent = row.id
-                finally:
-                    # What went out is out: a broken replay resumes after it, never repeats it.
-                    if sent is not None:
-                        self.buffer.remove(sent)
-            if self.buffer.dropped:
-                status = {"line": self.line.name, "dropped": self.buffer.dropped}
+                        for row in batch
+                    ),
+                    return_exceptions=True,
+                )
+                # What went out is out: a broken replay resumes without it, never repeats it.
+                sent = [
+                    row.id
+                    for row, outcome in zip(batch, outcomes, strict=True)
+                    if not isinstance(outcome, BaseException)
+                ]
+                if sent:
+                    self.buffer.remove_ids(sent)
+                for outcome in outcomes:
+                    if isinstance(outcome, BaseException):
+                        raise outcome
+            if self.buffer.dropped or self.buffer_lost:
+                status = {
+                    "line": self.line.name,
+                    "dropped": self.buffer.dropped,
+                    "not_buffered": self.buffer_lost,
+                }
                 await client.publish(
                     self.face.topics.server("buffer"), json.dumps(status).encode(), qos=1
                 )
         finally:
-            self.replaying = False
+            self._not_replaying.set()
 
     # -- commands ---------------------------------------------------------------------------
     async def work(self, lane: _Lane) -> None:
@@ -454,7 +609,7 @@ class _LineLink:
         requested = getattr(message.properties, "ResponseTopic", None)
         if requested is None:
             return default, None
-        problem = response_topic_problem(str(requested))
+        problem = response_topic_problem(str(requested), self.face.topics.prefix)
         if problem is not None:
             return default, f"the response topic {_short(str(requested))!r} {problem}"
         return str(requested), None
@@ -476,6 +631,34 @@ class _LineLink:
         except RobostarError:
             return None
 
+    async def answer_loop(self) -> None:
+        """Publish the readers' refusals, one at a time, away from the readers."""
+        while True:
+            client, message, reply_to, body, request_id = await self.answers.get()
+            await self._reply(client, message, reply_to, body, request_id)
+
+    def _refuse_later(
+        self, client: aiomqtt.Client, message: aiomqtt.Message, name: str, problem: RobostarError
+    ) -> None:
+        """A reader's refusal: audited now, answered by the answer task (dropped, counted,
+        when too many wait). Never raises nor waits."""
+        answer = self._refusal(message, name, problem)
+        if answer is None:
+            return
+        try:
+            self.answers.put_nowait((client, message, *answer))
+        except asyncio.QueueFull:
+            self.answers_dropped += 1
+            now = time.monotonic()
+            if now >= self._answers_logged + 10.0:
+                self._answers_logged = now
+                log.warning(
+                    "mqtt %s: too many refusals to answer; %d answer(s) dropped so far"
+                    " (each refusal is still audited)",
+                    self.line.name,
+                    self.answers_dropped,
+                )
+
     async def _refuse(
         self,
         client: aiomqtt.Client,
@@ -485,8 +668,21 @@ class _LineLink:
         command: Command[Any] | None = None,
         request_id: Any = None,
     ) -> None:
-        """Audit a refusal of the face's own and answer it. Never raises: the reader calls it,
-        and the reader must live as long as the connection."""
+        """A worker's refusal: audited and answered."""
+        answer = self._refusal(message, name, problem, command, request_id)
+        if answer is not None:
+            await self._reply(client, message, *answer)
+
+    def _refusal(
+        self,
+        message: aiomqtt.Message,
+        name: str,
+        problem: RobostarError,
+        command: Command[Any] | None = None,
+        request_id: Any = None,
+    ) -> tuple[str, dict[str, Any], Any] | None:
+        """Audit a refusal of the face's own; the answer to send (None: none can be made).
+        Never raises: the readers call it, and a reader must live as long as its connection."""
         try:
             what = command if command is not None else f"cmd/{_short(name)}"
             self.line.record(what, self.face.who, f"refused: {problem}")
@@ -499,8 +695,8 @@ class _LineLink:
             body = {"ok": False, "error": str(problem), "kind": type(problem).__name__}
         except Exception:
             log.exception("mqtt %s: a refusal was not answered", self.line.name)
-            return
-        await self._reply(client, message, reply_to, body, request_id)
+            return None
+        return reply_to, body, request_id
 
     async def _command(self, client: aiomqtt.Client, message: aiomqtt.Message, name: str) -> None:
         reply_to, topic_problem = self._reply_topic(message, name)
@@ -562,44 +758,90 @@ class MqttFace:
         self.topics = Topics(settings.prefix)
         self.links: dict[str, _LineLink] = {}
         self.tasks: set[asyncio.Task[Any]] = set()
+        self._stopping = False
         self.presence: aiomqtt.Client | None = None
         self.who = Who(settings.client_id, "mqtt")
         """The name commands run and are audited under (MQTT does not say who sent one)."""
 
-    def client(self, identifier: str, will_topic: str) -> aiomqtt.Client:
+    def client(self, identifier: str, will_topic: str | None) -> aiomqtt.Client:
         s = self.settings
         context = None
         if s.tls:
             context = ssl.create_default_context(cafile=s.ca)
             if s.cert:
                 context.load_cert_chain(s.cert, s.key)
-        return aiomqtt.Client(
+        # MQTT 5 Maximum Packet Size: the broker drops a message bigger than this instead of
+        # sending it, so max_payload bounds memory before a message is read (else a flood of
+        # big commands fills the client's queue with them). Room for the topic and properties
+        # on top; a command past it gets no answer and no audit (the broker drops it).
+        connect = Properties(PacketTypes.CONNECT)  # type: ignore[no-untyped-call]
+        connect.MaximumPacketSize = s.max_payload + PACKET_OVERHEAD
+        client = aiomqtt.Client(
             s.host,
             s.port,
             username=s.username,
             password=s.password,
             identifier=identifier,
             protocol=aiomqtt.ProtocolVersion.V5,
-            will=aiomqtt.Will(will_topic, b"false", qos=1, retain=True),
+            will=None if will_topic is None else aiomqtt.Will(will_topic, b"false", 1, True),
             tls_context=context,
             keepalive=10,
             timeout=s.publish_timeout,
             max_queued_incoming_messages=INCOMING_QUEUE,
             logger=client_log,
+            properties=connect,
         )
+        # A replay has a window of publishes out on purpose: aiomqtt would warn for each one
+        # past its default threshold (10).
+        client.pending_calls_threshold = REPLAY_WINDOW + 20
+        return client
+
+    def _spawn(
+        self,
+        name: str,
+        job: Callable[[], Coroutine[Any, Any, None]],
+        group: list[asyncio.Task[None]] | None = None,
+    ) -> None:
+        """Run ``job()`` as one of the face's tasks, for as long as the face runs: a task that
+        ends by an error (a bug, an error nobody foresaw) would otherwise end a line's values
+        or commands for good, silently. It is logged and started again a second later."""
+        task = asyncio.create_task(job(), name=f"mqtt {name}")
+        self.tasks.add(task)
+        if group is not None:
+            group.append(task)
+
+        def ended(done: asyncio.Task[None]) -> None:
+            self.tasks.discard(done)
+            if group is not None and done in group:
+                group.remove(done)
+            if self._stopping or done.cancelled():
+                return
+            exc = done.exception()
+            log.error(
+                "mqtt face: task %s ended (%r); starting it again in 1 s",
+                name,
+                exc,
+                exc_info=exc,
+            )
+            restart = lambda: None if self._stopping else self._spawn(name, job, group)  # noqa: E731
+            asyncio.get_running_loop().call_later(1.0, restart)
+
+        task.add_done_callback(ended)
 
     async def start(self) -> None:
         for name, line in self.server.lines.items():
             link = self.links[name] = _LineLink(self, line)
-            for job in (link.pump(), link.connect_loop()):
-                task = asyncio.create_task(job)
-                self.tasks.add(task)
+            self._spawn(f"{name} pump", link.pump)
+            self._spawn(f"{name} connection", link.connect_loop)
             if self.settings.commands:
-                for lane in link.lanes.values():
-                    worker = asyncio.create_task(link.work(lane))
-                    link.workers.append(worker)
-                    self.tasks.add(worker)
-        self.tasks.add(asyncio.create_task(self._server_presence()))
+                for lane_name, lane in link.lanes.items():
+                    self._spawn(
+                        f"{name} {lane_name}", functools.partial(link.work, lane), link.workers
+                    )
+                self._spawn(f"{name} answers", link.answer_loop)
+            if link.stop_names:
+                self._spawn(f"{name} stops connection", link.stop_loop)
+        self._spawn("server presence", self._server_presence)
         log.info(
             "mqtt face: %d line(s) to %s:%d",
             len(self.links),
@@ -616,6 +858,7 @@ class MqttFace:
                     backoff = 0.5
                     await client.publish(online, b"true", qos=1, retain=True)
                     self.presence = client
+                    _check_cancelled()  # a stop swallowed by the connect (see connect_loop)
                     async for _ in client.messages:
                         pass
             except aiomqtt.MqttError:
@@ -643,9 +886,11 @@ class MqttFace:
                 await presence.publish(
                     self.topics.server("online"), b"false", qos=1, retain=True, timeout=2.0
                 )
-        for task in list(self.tasks):
+        self._stopping = True  # no task is started again from here
+        tasks = list(self.tasks)
+        for task in tasks:
             task.cancel()
-        await asyncio.gather(*self.tasks, return_exceptions=True)
+        await asyncio.gather(*tasks, return_exceptions=True)
         self.tasks.clear()
         for link in self.links.values():
             link.buffer.close()

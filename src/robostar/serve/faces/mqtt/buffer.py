@@ -73,6 +73,19 @@ class StoreAndForward:
             done = self._db.execute("DELETE FROM pending WHERE id <= ?", (upto_id,)).rowcount
             self._count -= max(0, done)
 
+    def last_id(self) -> int | None:
+        """The newest row's id (None: empty); a replay sends the rows up to it and no further."""
+        with self._lock:
+            row = self._db.execute("SELECT MAX(id) FROM pending").fetchone()
+        return None if row is None or row[0] is None else int(row[0])
+
+    def remove_ids(self, ids: list[int]) -> None:
+        """Remove these rows (those a pipelined replay got acknowledged, whatever the order)."""
+        with self._lock:
+            before = self._db.total_changes
+            self._db.executemany("DELETE FROM pending WHERE id = ?", [(i,) for i in ids])
+            self._count -= max(0, self._db.total_changes - before)
+
     def close(self) -> None:
         with self._lock:
             self._db.close()

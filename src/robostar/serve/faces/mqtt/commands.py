@@ -61,9 +61,14 @@ COMMANDS: dict[str, Callable[[Mapping[str, Any]], Command[Any]]] = {
 
 def read_params(payload: bytes) -> dict[str, Any]:
     """The message's JSON object; UsageError ("bad payload: ...") for anything else, whatever
-    the bytes are (nesting too deep for the parser included). The caller caps the size."""
+    the bytes are (nesting too deep for the parser included). The caller caps the size.
+
+    An empty payload is refused, not read as ``{}``: an empty retained publish is how MQTT
+    clears a retained message, so clearing a retained ``cmd/estop`` must not run an E-stop."""
+    if not payload:
+        raise UsageError("bad payload: empty (send a JSON object, {} for no parameters)")
     try:
-        params = json.loads(payload or b"{}")
+        params = json.loads(payload)
     except (ValueError, UnicodeDecodeError) as exc:
         raise UsageError(f"bad payload: not JSON ({exc})") from None
     except RecursionError:

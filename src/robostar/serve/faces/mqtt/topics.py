@@ -29,11 +29,16 @@ MAX_TOPIC_BYTES = 65_535
 """MQTT's limit on a topic name (UTF-8)."""
 
 
-def response_topic_problem(topic: str) -> str | None:
+def response_topic_problem(topic: str, prefix: str | None = None) -> str | None:
     """Why ``topic`` (a request's MQTT 5 response topic) cannot take the reply, or None. The
-    broker would drop a reply to a ``$`` topic, and a publish cannot go to a filter."""
+    broker would drop a reply to a ``$`` topic, and a publish cannot go to a filter. With
+    ``prefix``, the face's own tree is refused too: the face would publish the reply there
+    itself, over a value, or on a command topic it takes (its answer run as a command, under
+    its own name, on any line)."""
     if not topic:
         return "empty"
+    if prefix is not None and (topic == prefix or topic.startswith(f"{prefix}/")):
+        return f"is in the face's own tree ({prefix}/)"
     if "+" in topic or "#" in topic:
         return "has a wildcard (+ or #)"
     if "\x00" in topic:
@@ -65,6 +70,10 @@ class Topics:
     def commands(self, line: str) -> str:
         """The subscription filter for a line's commands."""
         return f"{self.prefix}/{line}/cmd/+"
+
+    def command(self, line: str, name: str) -> str:
+        """One command's topic (the stops' own subscriptions)."""
+        return f"{self.prefix}/{line}/cmd/{name}"
 
     def command_name(self, topic: str, line: str) -> str | None:
         head = f"{self.prefix}/{line}/cmd/"
