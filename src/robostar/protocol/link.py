@@ -352,6 +352,10 @@ or a second request right behind a request must not pull the exchange from under
 If the held input shows that the peer moved on (an RST, a new request, any packet), the
 application's packet is not sent at all (see ``Link._peer_moved_on``)."""
 
+_RESEND_SHARE = 0.9
+"""An answer equal to the last one ACKed is the controller resending it (its ACK lost) only
+from this share of the controller's resend timeout on; sooner, it is new data."""
+
 _NOT_BUSY = frozenset((State.IDLE, State.RESYNC))
 """A host link's states outside an exchange (:attr:`Link.busy` is False in them)."""
 
@@ -781,7 +785,13 @@ class HostLink(Link):
                 return None
             packet = self._clean_packet = found
             self._clean_read = data
-        if packet == self._last_received and self._is_resend(packet, now):
+        if (
+            packet == self._last_received
+            # _is_resend's timing test first, inline: every poll answered alike comes here,
+            # and a copy sooner than the controller's resend is new data
+            and now - self._last_ack_at >= _RESEND_SHARE * self.peer_resend_after
+            and self._is_resend(packet, now)
+        ):
             return None
         # The flag as _flag_of reads it: a leading FF is the dummy byte.
         offset = 1 if packet[:1] == b"\xff" else 0
@@ -1050,7 +1060,7 @@ class HostLink(Link):
             return False
         # The controller resends only after its own timeout: a copy sooner than that is new
         # data (a slow controller answering the same request with the same bytes).
-        if now - self._last_ack_at < 0.9 * self.peer_resend_after:
+        if now - self._last_ack_at < _RESEND_SHARE * self.peer_resend_after:
             return False
         if self.state is State.WAIT_ANSWER:
             # The previous exchange's last answer again, late, while our request went out
