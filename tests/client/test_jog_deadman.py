@@ -10,6 +10,10 @@ import time
 import pytest
 
 from robostar.client import AsyncClient, Client
+from robostar.client.jog import AsyncJog, Jog, jog_start
+from robostar.commands.base import Command
+from robostar.commands.motion import JogStop
+from robostar.errors import OutcomeUnknownError
 from robostar.sim import VirtualController
 from robostar.transport import AsyncPeerTransport, PeerTransport
 
@@ -48,7 +52,6 @@ def test_a_jog_whose_hold_passes_stops_itself_while_the_body_hangs(
 
 
 def test_a_switch_given_at_construction_is_kept(controller: VirtualController) -> None:
-    from robostar.client.jog import Jog, jog_start
 
     with Client(PeerTransport(controller), timeout=1.0) as client:
         started = time.monotonic()
@@ -124,10 +127,6 @@ def test_client_jog_takes_the_switch(controller: VirtualController) -> None:
 
 
 def test_async_client_jog_takes_the_switch() -> None:
-    import asyncio
-
-    from robostar import AsyncClient
-
     async def main() -> None:
         async with AsyncClient("sim://") as client:
             started = time.monotonic()
@@ -137,3 +136,27 @@ def test_async_client_jog_takes_the_switch() -> None:
             assert not (await client.status())[0].running
 
     asyncio.run(main())
+
+
+def test_a_jog_start_of_unknown_outcome_is_stopped_at_once() -> None:
+    # BE's answer lost: the axis may be moving and no keepalive follows; BG goes out at once
+    # (not only the controller's watchdog 500 ms later), and the caller still hears why.
+    sent: list[str] = []
+
+    def call(command: Command[None]) -> None:
+        sent.append(command.CODE)
+        if command.CODE == "BE":
+            raise OutcomeUnknownError("BE", "the answer was lost")
+
+    start = jog_start(1, 1, "+", "joint")
+    with pytest.raises(OutcomeUnknownError):
+        Jog(call, start, 0.2).start()
+    assert sent == ["BE", "BG"]
+
+    async def acall(command: Command[None]) -> None:
+        call(command)
+
+    sent.clear()
+    with pytest.raises(OutcomeUnknownError):
+        asyncio.run(AsyncJog(acall, start, 0.2).start())
+    assert sent == ["BE", "BG"] and JogStop(1).CODE == "BG"

@@ -31,7 +31,13 @@ from typing import Protocol
 from robostar.client import args
 from robostar.commands.base import Command
 from robostar.commands.motion import JogContinue, JogStart, JogStop
-from robostar.errors import JogInterruptedError, LineError, UsageError
+from robostar.errors import (
+    JogInterruptedError,
+    LineError,
+    OutcomeUnknownError,
+    RobostarError,
+    UsageError,
+)
 from robostar.types import JogDirection, MotionType
 
 __all__ = ["AsyncJog", "Jog", "jog_start"]
@@ -206,7 +212,14 @@ class Jog(_JogBase):
         """Send BE and start the keepalives."""
         if self._running:
             return
-        self._call(self.command)
+        try:
+            self._call(self.command)
+        except OutcomeUnknownError:
+            # BE may have started the axis, and no keepalive will follow: stop it now rather
+            # than leave it to the controller's 500 ms watchdog (a stop is safe either way).
+            with contextlib.suppress(RobostarError):
+                self._call(JogStop(self.command.channel))
+            raise
         self._running = True
         _registry.add(self)
         self._thread = threading.Thread(
@@ -289,7 +302,13 @@ class AsyncJog(_JogBase):
         """Send BE and start the keepalive task."""
         if self._running:
             return
-        await self._call(self.command)
+        try:
+            await self._call(self.command)
+        except OutcomeUnknownError:
+            # as Jog.start: BE may have started the axis, and no keepalive will follow
+            with contextlib.suppress(RobostarError):
+                await self._call(JogStop(self.command.channel))
+            raise
         self._running = True
         _registry.add(self)
         self._task = asyncio.create_task(self._keepalive())
