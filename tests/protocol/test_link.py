@@ -1567,7 +1567,10 @@ def test_an_rst_right_behind_a_request_cancels_the_answer() -> None:
     ctl = ControllerLink()
     read = bytes.fromhex("02 FF 41 41 03 FF 12")
     assert read == frame(AA) + RST_B
-    assert ctl.receive_data(read, 0.0) == [RequestReceived(AA)]
+    assert ctl.receive_data(read, 0.0) == [
+        RequestReceived(AA),
+        PeerMovedOn(State.HANDLING),  # told at once: the turn began with it held
+    ]
     assert ctl.data_to_send() == b""
     assert ctl.state is State.HANDLING and ctl.next_deadline() is None
     assert ctl.send_answer([AA_ANSWER], After.DONE, 0.1) == [
@@ -1581,7 +1584,10 @@ def test_an_rst_right_behind_a_request_cancels_the_answer() -> None:
 
 def test_a_second_request_right_behind_a_request_supersedes_it_unanswered() -> None:
     ctl = ControllerLink()
-    assert ctl.receive_data(frame(AA) + frame(AB), 0.0) == [RequestReceived(AA)]
+    assert ctl.receive_data(frame(AA) + frame(AB), 0.0) == [
+        RequestReceived(AA),
+        PeerMovedOn(State.HANDLING),  # told at once: the turn began with it held
+    ]
     assert ctl.data_to_send() == b""
     assert ctl.state is State.HANDLING and ctl.next_deadline() is None
     assert ctl.send_answer([AA_ANSWER], After.DONE, 0.1) == [
@@ -1598,7 +1604,10 @@ def test_a_second_request_right_behind_a_request_supersedes_it_unanswered() -> N
 
 def test_a_non_request_packet_behind_a_request_breaks_a_rule_in_place_of_the_answer() -> None:
     ctl = ControllerLink()
-    assert ctl.receive_data(frame(AA) + frame(OK), 0.0) == [RequestReceived(AA)]
+    assert ctl.receive_data(frame(AA) + frame(OK), 0.0) == [
+        RequestReceived(AA),
+        PeerMovedOn(State.HANDLING),  # told at once: the turn began with it held
+    ]
     assert ctl.data_to_send() == b""
     assert plain(ctl.send_answer([AA_ANSWER], After.DONE, 0.1)) == [
         (
@@ -1617,12 +1626,16 @@ def test_a_non_request_packet_behind_a_request_breaks_a_rule_in_place_of_the_ans
 def test_held_input_is_taken_in_order_until_the_applications_next_turn() -> None:
     ctl = ControllerLink()
     read = frame(AA) + frame(AB) + RST_B
-    assert ctl.receive_data(read, 0.0) == [RequestReceived(AA)]
+    assert ctl.receive_data(read, 0.0) == [
+        RequestReceived(AA),
+        PeerMovedOn(State.HANDLING),  # told at once: the turn began with it held
+    ]
     # AB starts the application's next turn: the RST behind it waits again, and cancels AB's
     # answer in its turn.
     assert ctl.send_answer([AA_ANSWER], After.DONE, 0.1) == [
         ExchangeFailed(FailReason.SUPERSEDED, State.HANDLING, "a new request came first"),
         RequestReceived(AB),
+        PeerMovedOn(State.HANDLING),  # AB's turn begins with the RST held: told at once
     ]
     assert ctl.data_to_send() == b""
     assert ctl.state is State.HANDLING and ctl.next_deadline() is None
@@ -1678,7 +1691,10 @@ def test_held_noise_up_to_the_peers_move_is_dropped_and_the_rest_taken_in_order(
     # resend, no NAK. The corrupt frame after it is new line noise: NAKed in LISTEN.
     ctl = ControllerLink()
     read = frame(AA) + NAK_B + BAD_LRC + RST_B + BAD_LRC + frame(AB)
-    assert ctl.receive_data(read, 0.0) == [RequestReceived(AA)]
+    assert ctl.receive_data(read, 0.0) == [
+        RequestReceived(AA),
+        PeerMovedOn(State.HANDLING),  # told at once: the turn began with it held
+    ]
     assert ctl.send_answer([AA_ANSWER], After.DONE, 0.1) == [
         ExchangeFailed(FailReason.RESET, State.HANDLING, CANCELLED),
         RequestReceived(AB),
@@ -1687,7 +1703,10 @@ def test_held_noise_up_to_the_peers_move_is_dropped_and_the_rest_taken_in_order(
     assert ctl.state is State.HANDLING and ctl.next_deadline() is None
     # Before a new request, the held noise is dropped; the request is kept.
     ctl = ControllerLink()
-    assert ctl.receive_data(frame(AA) + NAK_B + BAD_LRC + frame(AB), 0.0) == [RequestReceived(AA)]
+    assert ctl.receive_data(frame(AA) + NAK_B + BAD_LRC + frame(AB), 0.0) == [
+        RequestReceived(AA),
+        PeerMovedOn(State.HANDLING),
+    ]
     assert ctl.send_answer([AA_ANSWER], After.DONE, 0.1) == [
         ExchangeFailed(FailReason.SUPERSEDED, State.HANDLING, "a new request came first"),
         RequestReceived(AB),
@@ -1709,7 +1728,10 @@ def test_abort_is_the_applications_call_too() -> None:
     # An RST held behind the request: at the application's abort, as at its answer, the host
     # has moved on (RESET) and nothing is sent; the RST is not read as stray input after it.
     ctl = ControllerLink()
-    assert ctl.receive_data(frame(AA) + RST_B, 0.0) == [RequestReceived(AA)]
+    assert ctl.receive_data(frame(AA) + RST_B, 0.0) == [
+        RequestReceived(AA),
+        PeerMovedOn(State.HANDLING),  # told at once: the turn began with it held
+    ]
     assert ctl.abort(0.1) == [ExchangeFailed(FailReason.RESET, State.HANDLING, CANCELLED)]
     assert ctl.data_to_send() == b""
     assert ctl.idle and ctl.next_deadline() is None
@@ -1723,7 +1745,8 @@ def test_an_end_packet_read_with_the_upload_line_breaks_a_rule_in_place_of_the_r
     ctl.send_answer([FB_OK], After.UPLOAD, 0.0)
     ctl.data_to_send()
     assert ctl.receive_data(frame(OK + LINE_1) + frame(END), 0.1) == [
-        UploadPacketReceived(LINE_1, end=False)
+        UploadPacketReceived(LINE_1, end=False),
+        PeerMovedOn(State.UPLOAD_HANDLING),  # the END held behind the line: told at once
     ]
     assert ctl.data_to_send() == b""
     assert ctl.state is State.UPLOAD_HANDLING and ctl.next_deadline() is None
@@ -1794,7 +1817,8 @@ def test_input_held_behind_the_end_packet_meets_accept_upload(
     ctl.receive_data(frame(FB), 0.0)
     ctl.send_answer([FB_OK], After.UPLOAD, 0.0)
     ctl.data_to_send()
-    assert ctl.receive_data(frame(END) + held, 0.1) == [UploadPacketReceived(b"", end=True)]
+    told = [] if held == NAK_B else [PeerMovedOn(State.UPLOAD_HANDLING)]  # noise is not told
+    assert ctl.receive_data(frame(END) + held, 0.1) == [UploadPacketReceived(b"", end=True), *told]
     assert ctl.accept_upload(0.2) == events
     assert ctl.data_to_send() == written
     assert ctl.state is after

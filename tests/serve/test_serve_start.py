@@ -99,3 +99,21 @@ def test_the_start_summary_never_shows_a_password_of_the_mqtt_url() -> None:
     assert without_password("mqtt://127.0.0.1:1883") == "mqtt://127.0.0.1:1883"
     assert without_password("mqtt://ann@[::1]:1883") == "mqtt://ann@[::1]:1883"
     assert without_password("mqtts://ann:p@ss@host:8883") == "mqtts://ann:***@host:8883"
+
+
+def test_audit_file_on_the_command_line_wins_over_the_files_audit_false(tmp_path: Path) -> None:
+    file = tmp_path / "serve.toml"
+    file.write_text("audit = false\n")
+    config = _config(audit=str(tmp_path / "a.jsonl"), file=str(file))
+    assert config.audit_path == str(tmp_path / "a.jsonl") and config.audit
+
+
+def test_a_password_holding_url_characters_is_hidden_too() -> None:
+    from robostar.cli.serve import without_password
+
+    assert without_password("mqtt://user:se/cret@broker:1883") == "mqtt://user:***@broker:1883"
+    assert without_password("mqtt://user:a?b#c@broker") == "mqtt://user:***@broker"
+    assert (
+        without_password("mqtts://broker:8883?ca=/etc/ca.pem")
+        == "mqtts://broker:8883?ca=/etc/ca.pem"
+    )

@@ -9,7 +9,6 @@ import os
 import signal
 import sys
 import time
-import urllib.parse
 from typing import Any
 
 import click
@@ -90,7 +89,9 @@ def build_config(
         raise ConfigError("lines: none given (--line NAME=URL or [lines.NAME] in --config)")
     if no_audit and audit:
         raise UsageError("--audit FILE and --no-audit: choose one")
-    keep = base.audit and not no_audit
+    # the command line wins over the file, as for every setting: --audit FILE keeps a log
+    # even where the file says audit = false
+    keep = not no_audit and (base.audit or bool(audit))
     path = (audit or base.audit_path or str(default_audit_path())) if keep else None
     return ServeConfig(
         lines=tuple(all_lines.values()),
@@ -115,12 +116,13 @@ def _check_faces(config: ServeConfig) -> None:
 def without_password(url: str) -> str:
     """``url`` with the password of its user part (``mqtt://user:secret@host``) shown as
     ``***``: the start's summary goes to the service's journal, where no secret belongs."""
-    parts = urllib.parse.urlsplit(url)
-    if parts.password is None:
+    # by the text, not urlsplit: a password holding "/", "?" or "#" ends urlsplit's netloc early
+    scheme, sep, rest = url.partition("://")
+    userinfo, at, host = rest.rpartition("@")
+    if not sep or not at or ":" not in userinfo:
         return url
-    user = parts.username or ""
-    host = parts.netloc.rpartition("@")[2]
-    return urllib.parse.urlunsplit(parts._replace(netloc=f"{user}:***@{host}"))
+    user = userinfo.partition(":")[0]
+    return f"{scheme}://{user}:***@{host}"
 
 
 def _describe(config: ServeConfig) -> list[str]:

@@ -484,6 +484,10 @@ class Link:
         """Dispatch held line input until the application's turn comes (or nothing is left)."""
         while self._backlog and self.state not in APP_TURN:
             self._dispatch_frame(self._backlog.pop(0))
+        if self._backlog:
+            # The turn began with input already held behind it (read with the request, or
+            # left from an earlier read): it is held in this turn as much as later input is.
+            self._held_in_turn(self._backlog)
 
     def _dispatch_frame(self, event: FrameEvent) -> None:
         if isinstance(event, Packet):  # the usual event first

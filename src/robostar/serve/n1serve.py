@@ -47,6 +47,8 @@ class LineBackend(Backend):
     def __init__(self, line: Line) -> None:
         self.line = line
         self._tasks: set[asyncio.Task[None]] = set()
+        self._abandoned: set[Request] = set()
+        """Requests whose host gave them up before their task ran (see exchange_abandoned)."""
 
     @staticmethod
     def who(session: Session) -> Who:
@@ -59,6 +61,7 @@ class LineBackend(Backend):
         task = asyncio.get_running_loop().create_task(self._serve(request))
         self._tasks.add(task)
         task.add_done_callback(self._tasks.discard)
+        task.add_done_callback(lambda _: self._abandoned.discard(request))
 
     async def _serve(self, request: Request) -> None:
         if not request.live:
@@ -67,6 +70,12 @@ class LineBackend(Backend):
             return
         command = request.command
         who = self.who(request.session)
+        if request in self._abandoned:
+            # its host gave it up before this task ran (its RST or next request came with it,
+            # even in the same read): the withdraw found nothing queued, so nothing may be now
+            if command.CHANGES_STATE:
+                self.line.record(command, who, "cancelled, not sent: the host gave it up")
+            return
         try:
             if command.CHANGES_STATE:
                 result = await self.line.execute(command, who=who, implicit_lease=True)
@@ -120,7 +129,9 @@ class LineBackend(Backend):
         raise Refusal(str(error), _FLAG_FAILED)
 
     def exchange_abandoned(self, session: Session, request: Request) -> None:
-        # nobody waits for its outcome now: a write of a host that moved on must not run
+        # nobody waits for its outcome now: a write of a host that moved on must not run,
+        # whether it waits in the line's queue (withdrawn) or its task has not run yet
+        self._abandoned.add(request)
         self._withdraw(session, "the host gave the exchange up (an RST or a new request)")
 
     def session_closed(self, session: Session) -> None:

@@ -1,0 +1,86 @@
+"""A host that gives its request up at once — its RST (or its next request) in the same read as
+the request, or read before the line server's task for it has run — has its write withdrawn:
+nothing is sent, and the audit says so. (Found by review: the link told the backend only of
+input held after the turn began, and a withdraw before the task ran found nothing queued.)"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+from pathlib import Path
+
+import pytest
+
+from robostar.commands.control import ReadSpeed, SetSpeed
+from robostar.protocol.frame import RST, encode_packet
+from robostar.serve import LineConfig, LineServer, ServeConfig
+from robostar.serve.line import Line
+from robostar.serve.n1serve import LineBackend
+from robostar.serving import Session
+
+from .line_fakes import FaultySim, wait_for
+
+pytestmark = pytest.mark.timeout(30)
+
+
+def test_request_and_rst_in_one_write_over_the_n1_face(tmp_path: Path) -> None:
+    sim = FaultySim()
+    audit = tmp_path / "audit.jsonl"
+
+    async def main() -> None:
+        config = ServeConfig(
+            lines=(LineConfig("cell1", "sim://", poll_interval=5.0, slow_interval=5.0),),
+            faces={"n1": {"lines": {"cell1": "127.0.0.1:0"}}},
+            audit_path=str(audit),
+        )
+        async with LineServer(config, client_factory=sim.client) as server:
+            line = server.lines["cell1"]
+            await line.wait_polled()
+            host, port = server.faces["n1"].addresses["cell1"]  # type: ignore[attr-defined]
+            sim.write_delay = 0.3  # the line is busy: what comes next waits in the queue
+            busy = asyncio.create_task(line.read(ReadSpeed(2), max_age=0))
+            assert await wait_for(lambda: line._current is not None)
+            _, writer = await asyncio.open_connection(host, port)
+            writer.write(encode_packet(SetSpeed(1, 562).encode()) + bytes([RST]))
+            await writer.drain()
+            await busy
+            sim.write_delay = 0.0
+            await asyncio.sleep(0.5)
+            writer.close()
+
+    asyncio.run(main())
+    assert [c.speed for c in sim.sent if isinstance(c, SetSpeed)] == []
+    entries = [json.loads(line) for line in audit.read_text().splitlines()]
+    outcomes = [e["outcome"] for e in entries if "SetSpeed" in e["what"]]
+    assert outcomes and all(o.startswith("cancelled, not sent") for o in outcomes), outcomes
+
+
+@pytest.mark.parametrize("separate_reads", [True, False], ids=["later read", "same read"])
+def test_a_give_up_before_the_task_ran_withdraws_the_write(separate_reads: bool) -> None:
+    sim = FaultySim()
+
+    async def main() -> None:
+        config = LineConfig("cell1", "sim://", poll_interval=5.0, slow_interval=5.0)
+        line = Line(config, client_factory=sim.client)
+        await line.start()
+        try:
+            await line.wait_polled()
+            sim.write_delay = 0.3
+            busy = asyncio.create_task(line.read(ReadSpeed(2), max_age=0))
+            assert await wait_for(lambda: line._current is not None)
+            session = Session(LineBackend(line), name="h1")
+            now = asyncio.get_running_loop().time()
+            request = encode_packet(SetSpeed(1, 561).encode())
+            if separate_reads:
+                session.receive_data(request, now)
+                session.receive_data(bytes([RST]), now)  # before the backend's task has run
+            else:
+                session.receive_data(request + bytes([RST]), now)
+            await busy
+            sim.write_delay = 0.0
+            await asyncio.sleep(0.5)
+        finally:
+            await line.stop()
+
+    asyncio.run(main())
+    assert [c.speed for c in sim.sent if isinstance(c, SetSpeed)] == []
