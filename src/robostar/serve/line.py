@@ -293,7 +293,10 @@ class Line:
         except asyncio.CancelledError:
             # the requester went away (a face draining at stop, a cancelled task): that is no
             # error of the robot's, and a write on the wire may well have been carried out
-            self.record(command, who, _cancelled_outcome(job))
+            outcome = _cancelled_outcome(job)
+            self.record(command, who, outcome)
+            if isinstance(command, JogStart) and outcome.startswith("outcome unknown"):
+                self._stop_unsure_jog(command.channel, who)
             raise
         except LeaseLostError as exc:
             self.record(command, who, f"refused: {exc}")
@@ -303,6 +306,8 @@ class Line:
             raise
         except BaseException as exc:
             self.record(command, who, f"error: {type(exc).__name__}: {exc}")
+            if isinstance(command, JogStart) and isinstance(exc, OutcomeUnknownError):
+                self._stop_unsure_jog(command.channel, who)
             raise
         self.record(command, who, "ok")
         if isinstance(command, JogStart):
@@ -582,13 +587,21 @@ class Line:
                 task = asyncio.get_running_loop().create_task(self._stop_jog(channel, who))
                 task.add_done_callback(_ignore_result)
 
-    async def _stop_jog(self, channel: int, who: Who) -> None:
+    def _stop_unsure_jog(self, channel: int, who: Who) -> None:
+        """A jog start whose outcome is unknown may have set the axis moving, and nobody will
+        keep it alive: stop it now rather than leave it to the controller's watchdog."""
+        if self._up.is_set() and not self._stopping:
+            why = "its start's outcome was unknown"
+            task = asyncio.get_running_loop().create_task(self._stop_jog(channel, who, why))
+            task.add_done_callback(_ignore_result)
+
+    async def _stop_jog(self, channel: int, who: Who, why: str = "lease lost") -> None:
         try:
             await self._submit(JogStop(channel), PRI_STOP, None)
         except RobostarError as exc:
-            self.record(JogStop(channel), who, f"error: lease lost, jog stop failed: {exc}")
+            self.record(JogStop(channel), who, f"error: {why}, jog stop failed: {exc}")
             raise
-        self.record(JogStop(channel), who, "jog stopped: lease lost")
+        self.record(JogStop(channel), who, f"jog stopped: {why}")
 
     def record(self, command: Command[Any] | str, who: Who, outcome: str) -> None:
         """One audit entry for this line: what ``who`` asked (a command, or a name when the
