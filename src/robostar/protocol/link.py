@@ -425,12 +425,9 @@ class Link:
         self._now = now
         backlog = self._backlog
         waiting = self.state in APP_TURN  # the application is busy with the last request
-        frames = self.decoder.feed(data)
-        if waiting and frames:
-            self._held_in_turn(frames)
-        backlog.extend(frames)
+        backlog.extend(self.decoder.feed(data))
         if backlog:
-            self._take_backlog()
+            self._take_backlog()  # which tells of input held in the turn (_held_in_turn)
             if waiting and len(backlog) > MAX_BACKLOG:
                 # A peer that keeps sending while its last request is being handled cannot
                 # hold unbounded memory (one read's worth is held when the application is
@@ -623,7 +620,8 @@ class Link:
         self._fail(FailReason.RESET, "RST received", send_rst=False)
 
     def _held_in_turn(self, frames: list[FrameEvent]) -> None:
-        """``frames`` arrived in the application's turn and are held (see :data:`APP_TURN`)."""
+        """``frames`` (all the input held) wait for the application's next call in its turn
+        (see :data:`APP_TURN`); called whenever input is left held, so possibly again."""
 
     def _peer_moved_on(self) -> bool:
         """At the application's call in its turn: if the peer sent an RST or a packet meanwhile,
