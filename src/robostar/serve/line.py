@@ -582,20 +582,25 @@ class Line:
     # -- the lease -------------------------------------------------------------------------
     def _lease_lost(self, who: Who) -> None:
         for channel, holder in list(self._jogs.items()):
-            if holder == who and self._up.is_set() and not self._stopping:
+            if holder == who and self._stop_jog_soon(channel, who, "lease lost"):
                 self._jogs.pop(channel, None)
-                task = asyncio.get_running_loop().create_task(self._stop_jog(channel, who))
-                task.add_done_callback(_ignore_result)
 
     def _stop_unsure_jog(self, channel: int, who: Who) -> None:
         """A jog start whose outcome is unknown may have set the axis moving, and nobody will
         keep it alive: stop it now rather than leave it to the controller's watchdog."""
-        if self._up.is_set() and not self._stopping:
-            why = "its start's outcome was unknown"
-            task = asyncio.get_running_loop().create_task(self._stop_jog(channel, who, why))
-            task.add_done_callback(_ignore_result)
+        self._stop_jog_soon(channel, who, "its start's outcome was unknown")
 
-    async def _stop_jog(self, channel: int, who: Who, why: str = "lease lost") -> None:
+    def _stop_jog_soon(self, channel: int, who: Who, why: str) -> bool:
+        """BG for ``channel`` from a task of its own (audited with ``why``), while the line is
+        up and the server not stopping; False when not sent (a jog kept in ``_jogs`` is then
+        stopped as the server stops)."""
+        if not self._up.is_set() or self._stopping:
+            return False
+        task = asyncio.get_running_loop().create_task(self._stop_jog(channel, who, why))
+        task.add_done_callback(_ignore_result)
+        return True
+
+    async def _stop_jog(self, channel: int, who: Who, why: str) -> None:
         try:
             await self._submit(JogStop(channel), PRI_STOP, None)
         except RobostarError as exc:
