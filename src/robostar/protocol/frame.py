@@ -197,13 +197,9 @@ class FrameDecoder:
             while i < n and view[i] in _CONTROL_BYTES:
                 events.append(_CONTROL_EVENTS[view[i]])
                 i += 1
-            if (
-                4 <= n - i <= MAX_PACKET
-                and view[i] == STX
-                and view.find(b"\x03", i + 1) == n - 2
-                and view.find(b"\x02", i + 1, n - 2) < 0
-            ):
-                data_bytes = view[i + 1 : n - 2]
+            whole = _LONE_FRAME(view, i)  # the rest is one whole frame (lone_frame's test)
+            if whole is not None:
+                data_bytes = whole.group(1)
                 got = view[n - 1]
                 want = lrc(data_bytes)
                 if got == want or (want == 0 and got == ETX):
