@@ -22,7 +22,7 @@ import os
 import sqlite3
 import ssl
 import time
-from collections.abc import Callable, Coroutine, Mapping
+from collections.abc import Awaitable, Callable, Coroutine, Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 from urllib.parse import urlsplit
@@ -427,87 +427,99 @@ class _LineLink:
                 )
 
     # -- the connection ------------------------------------------------------------------------
-    async def connect_loop(self) -> None:
-        settings = self.face.settings
-        topics = self.face.topics
-        online = topics.online(self.line.name)
+    async def _keep_connected(
+        self,
+        label: str,
+        client_id: str,
+        will: str | None,
+        session: Callable[[aiomqtt.Client], Awaitable[None]],
+        lost: Callable[[], None],
+    ) -> None:
+        """Connect as ``client_id`` (last will on topic ``will``, if any) and run ``session`` on
+        the connection until it fails; then ``lost()`` and again, backing off up to
+        ``reconnect_max`` (reset once a connection is made)."""
         backoff = 0.5
         while True:
             try:
-                async with self.face.client(
-                    f"{settings.client_id}-{self.line.name}", online
-                ) as client:
+                async with self.face.client(client_id, will) as client:
                     # A stop that raced the connect may have been swallowed (aiomqtt's
                     # wait_for on 3.11): look before waiting on this connection for good.
                     _check_cancelled()
                     backoff = 0.5
-                    # A kick is about the connection before this one (a publish that failed
-                    # while there was none): it must not end this one.
-                    self.kicked.clear()
-                    up = b"true" if self.line.up else b"false"
-                    await client.publish(online, up, qos=1, retain=True)
-                    if settings.commands:
-                        await client.subscribe(
-                            topics.commands(self.line.name), options=_command_options()
-                        )
-                    await self._replay(client)
-                    self.client = client
-                    self.reporter.forget()  # the current state goes out again, retained
-                    for key, sample in self.line.model.snapshot().items():
-                        self.reporter.offer(key, sample)
-                    self.wake.set()
-                    log.info(
-                        "mqtt %s: connected to %s:%d", self.line.name, settings.host, settings.port
-                    )
-                    _check_cancelled()  # (the publishes and the replay above use wait_for too)
-                    reader = asyncio.create_task(self._read(client))
-                    kicked = asyncio.create_task(self.kicked.wait())
-                    try:
-                        done, _ = await asyncio.wait(
-                            {reader, kicked}, return_when=asyncio.FIRST_COMPLETED
-                        )
-                    finally:
-                        reader.cancel()
-                        kicked.cancel()
-                    self.kicked.clear()
-                    if reader in done:
-                        reader.result()  # the connection's error
+                    await session(client)
             except (aiomqtt.MqttError, TimeoutError) as exc:  # a replay's publish may time out
                 _check_cancelled()
-                log.warning("mqtt %s: %s; retrying in %.1f s", self.line.name, exc, backoff)
+                log.warning("mqtt %s: %s; retrying in %.1f s", label, exc, backoff)
             finally:
-                self.client = None
+                lost()
             await asyncio.sleep(backoff)
             backoff = min(backoff * 2, self.face.settings.reconnect_max)
+
+    async def connect_loop(self) -> None:
+        settings = self.face.settings
+        online = self.face.topics.online(self.line.name)
+
+        def lost() -> None:
+            self.client = None
+
+        await self._keep_connected(
+            self.line.name,
+            f"{settings.client_id}-{self.line.name}",
+            online,
+            self._serve_connection,
+            lost,
+        )
+
+    async def _serve_connection(self, client: aiomqtt.Client) -> None:
+        """One connection of the line's values and commands: birth, replay, then commands."""
+        settings = self.face.settings
+        topics = self.face.topics
+        online = topics.online(self.line.name)
+        # A kick is about the connection before this one (a publish that failed while there
+        # was none): it must not end this one.
+        self.kicked.clear()
+        up = b"true" if self.line.up else b"false"
+        await client.publish(online, up, qos=1, retain=True)
+        if settings.commands:
+            await client.subscribe(topics.commands(self.line.name), options=_command_options())
+        await self._replay(client)
+        self.client = client
+        self.reporter.forget()  # the current state goes out again, retained
+        for key, sample in self.line.model.snapshot().items():
+            self.reporter.offer(key, sample)
+        self.wake.set()
+        log.info("mqtt %s: connected to %s:%d", self.line.name, settings.host, settings.port)
+        _check_cancelled()  # (the publishes and the replay above use wait_for too)
+        reader = asyncio.create_task(self._read(client))
+        kicked = asyncio.create_task(self.kicked.wait())
+        try:
+            done, _ = await asyncio.wait({reader, kicked}, return_when=asyncio.FIRST_COMPLETED)
+        finally:
+            reader.cancel()
+            kicked.cancel()
+        self.kicked.clear()
+        if reader in done:
+            reader.result()  # the connection's error
 
     async def stop_loop(self) -> None:
         """The stops' own connection: subscribed to the enabled stops' topics only, so its
         client queue holds stops alone, whatever floods the other command topics."""
-        settings = self.face.settings
-        backoff = 0.5
-        while True:
-            try:
-                # No last will: this connection's end says nothing about the line.
-                async with self.face.client(
-                    f"{settings.client_id}-{self.line.name}-stops", None
-                ) as client:
-                    _check_cancelled()  # a stop swallowed by the connect (see connect_loop)
-                    backoff = 0.5
-                    for name in sorted(self.stop_names):
-                        await client.subscribe(
-                            self.face.topics.command(self.line.name, name),
-                            options=_command_options(),
-                        )
-                    self.stop_client = client
-                    _check_cancelled()
-                    await self._read(client, stops=True)
-            except (aiomqtt.MqttError, TimeoutError) as exc:
-                _check_cancelled()
-                log.warning("mqtt %s (stops): %s; retrying in %.1f s", self.line.name, exc, backoff)
-            finally:
-                self.stop_client = None
-            await asyncio.sleep(backoff)
-            backoff = min(backoff * 2, self.face.settings.reconnect_max)
+
+        async def serve_stops(client: aiomqtt.Client) -> None:
+            for name in sorted(self.stop_names):
+                await client.subscribe(
+                    self.face.topics.command(self.line.name, name), options=_command_options()
+                )
+            self.stop_client = client
+            _check_cancelled()
+            await self._read(client, stops=True)
+
+        def lost() -> None:
+            self.stop_client = None
+
+        # No last will: this connection's end says nothing about the line.
+        client_id = f"{self.face.settings.client_id}-{self.line.name}-stops"
+        await self._keep_connected(f"{self.line.name} (stops)", client_id, None, serve_stops, lost)
 
     async def _read(self, client: aiomqtt.Client, *, stops: bool = False) -> None:
         """Take command messages until the connection fails (MqttError). Nothing here waits on
