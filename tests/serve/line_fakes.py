@@ -10,12 +10,16 @@ port that drops.
 from __future__ import annotations
 
 import asyncio
-from collections.abc import Callable
+from collections.abc import AsyncIterator, Callable
+from contextlib import asynccontextmanager
+from pathlib import Path
 from typing import Any
 
 from robostar.client.aio import AsyncClient
 from robostar.commands.base import Command
-from robostar.serve import LineConfig
+from robostar.commands.control import ReadSpeed
+from robostar.serve import LineConfig, LineServer, ServeConfig
+from robostar.serve.line import Line
 from robostar.sim import SimConfig, VirtualController
 from robostar.transport.inproc import AsyncPeerTransport
 
@@ -92,3 +96,28 @@ async def wait_for(predicate: Callable[[], bool], timeout: float = 3.0) -> bool:
             return False
         await asyncio.sleep(0.01)
     return True
+
+
+async def hold_the_line(line: Line, sim: FaultySim) -> asyncio.Task[int]:
+    """A slow read on the wire, so that what is queued next waits (await the task after)."""
+    sim.write_delay = 0.3
+    read = ReadSpeed(2)
+    busy = asyncio.create_task(line.read(read, max_age=0))
+    assert await wait_for(lambda: line._current is not None and line._current.command is read)
+    return busy
+
+
+@asynccontextmanager
+async def n1_server(sim: FaultySim, audit: Path) -> AsyncIterator[tuple[Line, str, int]]:
+    """A line server of one line (cell1) in front of ``sim``, its N1 face on a free loopback
+    port, auditing to ``audit``: the line, and the face's host and port."""
+    config = ServeConfig(
+        lines=(LineConfig("cell1", "sim://", poll_interval=5.0, slow_interval=5.0),),
+        faces={"n1": {"lines": {"cell1": "127.0.0.1:0"}}},
+        audit_path=str(audit),
+    )
+    async with LineServer(config, client_factory=sim.client) as server:
+        line = server.lines["cell1"]
+        await line.wait_polled()
+        host, port = server.faces["n1"].addresses["cell1"]  # type: ignore[attr-defined]
+        yield line, host, port

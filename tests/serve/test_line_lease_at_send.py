@@ -15,7 +15,7 @@ from robostar.serve.audit import AuditLog
 from robostar.serve.lease import LeaseHeldError
 from robostar.serve.line import LeaseLostError, Line, WithdrawnError
 
-from .line_fakes import FaultySim, wait_for
+from .line_fakes import FaultySim, hold_the_line, wait_for
 
 ANN = Who("ann", "api")
 BOB = Who("bob", "api")
@@ -31,15 +31,6 @@ async def _slow_line(sim: FaultySim, path: Path) -> Line:
     return line
 
 
-async def _hold_the_line(line: Line, sim: FaultySim) -> asyncio.Task[int]:
-    """A slow read on the wire, so that what is queued next waits."""
-    sim.write_delay = 0.3
-    read = ReadSpeed(2)
-    busy = asyncio.create_task(line.read(read, max_age=0))
-    assert await wait_for(lambda: line._current is not None and line._current.command is read)
-    return busy
-
-
 def test_a_write_queued_before_its_requester_lost_the_lease_is_refused_unsent(
     tmp_path: Path,
 ) -> None:
@@ -49,7 +40,7 @@ def test_a_write_queued_before_its_requester_lost_the_lease_is_refused_unsent(
     async def main() -> None:
         line = await _slow_line(sim, path)
         try:
-            busy = await _hold_the_line(line, sim)
+            busy = await hold_the_line(line, sim)
             ann = asyncio.create_task(line.execute(SetSpeed(1, 555), who=ANN, implicit_lease=True))
             assert await wait_for(lambda: line.lease.held_by(ANN))  # queued, with the lease
             line.lease.release(ANN)
@@ -84,7 +75,7 @@ def test_a_write_queued_when_the_lease_expired_is_refused_unsent(tmp_path: Path)
         line = await _slow_line(sim, tmp_path / "audit.jsonl")
         line.lease.ttl = 0.1  # expires while the write waits
         try:
-            busy = await _hold_the_line(line, sim)
+            busy = await hold_the_line(line, sim)
             with pytest.raises(LeaseLostError, match="the lease is free"):
                 await line.execute(SetSpeed(1, 556), who=ANN, implicit_lease=True)
             await busy
@@ -101,7 +92,7 @@ def test_a_stop_queued_by_someone_without_the_lease_still_goes_out(tmp_path: Pat
     async def main() -> None:
         line = await _slow_line(sim, tmp_path / "audit.jsonl")
         try:
-            busy = await _hold_the_line(line, sim)
+            busy = await hold_the_line(line, sim)
             line.lease.acquire(BOB)
             await line.execute(EmergencyStop(), who=ANN)  # stops need no lease
             await busy
@@ -121,7 +112,7 @@ def test_withdraw_takes_a_requesters_queued_requests_out_but_not_its_stops(
     async def main() -> None:
         line = await _slow_line(sim, path)
         try:
-            busy = await _hold_the_line(line, sim)
+            busy = await hold_the_line(line, sim)
             write = asyncio.create_task(
                 line.execute(SetSpeed(1, 557), who=ANN, implicit_lease=True)
             )

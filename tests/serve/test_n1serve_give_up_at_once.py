@@ -11,14 +11,14 @@ from pathlib import Path
 
 import pytest
 
-from robostar.commands.control import ReadSpeed, SetSpeed
+from robostar.commands.control import SetSpeed
 from robostar.protocol.frame import RST, encode_packet
-from robostar.serve import LineConfig, LineServer, ServeConfig
+from robostar.serve import LineConfig
 from robostar.serve.line import Line
 from robostar.serve.n1serve import LineBackend
 from robostar.serving import Session
 
-from .line_fakes import FaultySim, wait_for
+from .line_fakes import FaultySim, hold_the_line, n1_server
 
 pytestmark = pytest.mark.timeout(30)
 
@@ -28,18 +28,8 @@ def test_request_and_rst_in_one_write_over_the_n1_face(tmp_path: Path) -> None:
     audit = tmp_path / "audit.jsonl"
 
     async def main() -> None:
-        config = ServeConfig(
-            lines=(LineConfig("cell1", "sim://", poll_interval=5.0, slow_interval=5.0),),
-            faces={"n1": {"lines": {"cell1": "127.0.0.1:0"}}},
-            audit_path=str(audit),
-        )
-        async with LineServer(config, client_factory=sim.client) as server:
-            line = server.lines["cell1"]
-            await line.wait_polled()
-            host, port = server.faces["n1"].addresses["cell1"]  # type: ignore[attr-defined]
-            sim.write_delay = 0.3  # the line is busy: what comes next waits in the queue
-            busy = asyncio.create_task(line.read(ReadSpeed(2), max_age=0))
-            assert await wait_for(lambda: line._current is not None)
+        async with n1_server(sim, audit) as (line, host, port):
+            busy = await hold_the_line(line, sim)
             _, writer = await asyncio.open_connection(host, port)
             writer.write(encode_packet(SetSpeed(1, 562).encode()) + bytes([RST]))
             await writer.drain()
@@ -65,9 +55,7 @@ def test_a_give_up_before_the_task_ran_withdraws_the_write(separate_reads: bool)
         await line.start()
         try:
             await line.wait_polled()
-            sim.write_delay = 0.3
-            busy = asyncio.create_task(line.read(ReadSpeed(2), max_age=0))
-            assert await wait_for(lambda: line._current is not None)
+            busy = await hold_the_line(line, sim)
             session = Session(LineBackend(line), name="h1")
             now = asyncio.get_running_loop().time()
             request = encode_packet(SetSpeed(1, 561).encode())

@@ -6,43 +6,18 @@ from __future__ import annotations
 
 import asyncio
 import json
-from collections.abc import AsyncIterator
-from contextlib import asynccontextmanager
 from pathlib import Path
 
 from robostar.commands.control import ReadSpeed, SetSpeed
 from robostar.protocol.frame import RST, encode_packet
-from robostar.serve import LineConfig, LineServer, ServeConfig, Who
+from robostar.serve import LineConfig, Who
 from robostar.serve.line import Line
 from robostar.serve.n1serve import LineBackend
 from robostar.serving import Session
 
-from .line_fakes import FaultySim, wait_for
+from .line_fakes import FaultySim, hold_the_line, n1_server, wait_for
 
 ANN = Who("ann", "api")
-
-
-@asynccontextmanager
-async def _server(sim: FaultySim, path: Path) -> AsyncIterator[tuple[Line, str, int]]:
-    config = ServeConfig(
-        lines=(LineConfig("cell1", "sim://", poll_interval=5.0, slow_interval=5.0),),
-        faces={"n1": {"lines": {"cell1": "127.0.0.1:0"}}},
-        audit_path=str(path),
-    )
-    async with LineServer(config, client_factory=sim.client) as server:
-        line = server.lines["cell1"]
-        await line.wait_polled()
-        host, port = server.faces["n1"].addresses["cell1"]
-        yield line, host, port
-
-
-async def _hold_the_line(line: Line, sim: FaultySim) -> asyncio.Task[int]:
-    """A slow read on the wire, so that what is queued next waits."""
-    sim.write_delay = 0.3
-    read = ReadSpeed(2)
-    busy = asyncio.create_task(line.read(read, max_age=0))
-    assert await wait_for(lambda: line._current is not None and line._current.command is read)
-    return busy
 
 
 def _n1_outcomes(path: Path, what: str) -> list[str]:
@@ -57,8 +32,8 @@ def test_a_write_of_a_host_that_disconnected_never_runs_under_another_lease(
     path = tmp_path / "audit.jsonl"
 
     async def main() -> int:
-        async with _server(sim, path) as (line, host, port):
-            busy = await _hold_the_line(line, sim)
+        async with n1_server(sim, path) as (line, host, port):
+            busy = await hold_the_line(line, sim)
             _, writer = await asyncio.open_connection(host, port)
             writer.write(encode_packet(SetSpeed(1, 555).encode()))
             await writer.drain()
@@ -106,8 +81,8 @@ def test_a_write_whose_host_gave_the_exchange_up_is_withdrawn(tmp_path: Path) ->
     path = tmp_path / "audit.jsonl"
 
     async def main() -> None:
-        async with _server(sim, path) as (line, host, port):
-            busy = await _hold_the_line(line, sim)
+        async with n1_server(sim, path) as (line, host, port):
+            busy = await hold_the_line(line, sim)
             _, writer = await asyncio.open_connection(host, port)
             writer.write(encode_packet(SetSpeed(1, 556).encode()))
             await writer.drain()
@@ -132,8 +107,8 @@ def test_a_new_request_of_the_same_host_withdraws_the_one_it_superseded(tmp_path
     path = tmp_path / "audit.jsonl"
 
     async def main() -> None:
-        async with _server(sim, path) as (line, host, port):
-            busy = await _hold_the_line(line, sim)
+        async with n1_server(sim, path) as (line, host, port):
+            busy = await hold_the_line(line, sim)
             _, writer = await asyncio.open_connection(host, port)
             writer.write(encode_packet(SetSpeed(1, 557).encode()))
             await writer.drain()
