@@ -107,11 +107,11 @@ class CannedPeer:
         self.answer = answer
         self._out = bytearray()
 
-    def receive_data(self, data: bytes, now: float) -> None:
+    def feed(self, data: bytes, now: float) -> None:
         if data[:1] == bytes((STX,)):
             self._out += self.answer
 
-    def data_to_send(self, now: float) -> bytes:
+    def output(self, now: float) -> bytes:
         out = bytes(self._out)
         self._out.clear()
         return out

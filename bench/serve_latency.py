@@ -17,7 +17,7 @@ from bench.measure import percentile
 from robostar import AsyncClient
 from robostar.serve import LineConfig, LineServer, ServeConfig
 from robostar.sim import SimConfig, VirtualController
-from robostar.sim.server import SimServer
+from robostar.sim.listeners import SimServer
 
 SAMPLES = 300
 

@@ -41,10 +41,10 @@ def main(rounds: int = 60, pages: int = 50) -> dict[str, Any]:
 
     from robostar.serve.config import LineConfig, ServeConfig
     from robostar.serve.faces.web import WebFace
-    from robostar.serve.server import LineServer
+    from robostar.serve.line_server import LineServer
     from robostar.serve.users import Role, UserStore
     from robostar.sim import SimConfig, VirtualController
-    from robostar.sim.server import SimServer
+    from robostar.sim.listeners import SimServer
 
     results: dict[str, Any] = {}
     with tempfile.TemporaryDirectory() as tmp:

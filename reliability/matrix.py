@@ -102,7 +102,7 @@ class FaultLine(PeerTransport):
 
     def open(self) -> None:
         # Bytes sent while nobody was connected are gone.
-        self._peer(self.injector.data_to_send, self.clock.now)
+        self._peer(self.injector.output, self.clock.now)
         super().open()
 
     def _tail(self, data: bytes) -> None:
@@ -123,8 +123,8 @@ class FaultLine(PeerTransport):
         closing = bytes((wrong,)) if self._after_etx else closing
         self._in_packet = self._after_etx = False
         if closing:
-            self._peer(self.injector.receive_data, closing, self.clock.now)
-        self._peer(self.injector.data_to_send, self.clock.now)
+            self._peer(self.injector.feed, closing, self.clock.now)
+        self._peer(self.injector.output, self.clock.now)
         self.close()
         self.trace.append(("cut", b""))
         return PortError(f"{self.url}: the connection was lost (fault)")
@@ -136,7 +136,7 @@ class FaultLine(PeerTransport):
         self.last_activity = self.clock.now
         self.written += len(data)
         self._tail(data)
-        self._peer(self.injector.receive_data, bytes(data), self.clock.now)
+        self._peer(self.injector.feed, bytes(data), self.clock.now)
         if self.injector.disconnect_requested:
             raise self._cut()
 
@@ -146,7 +146,7 @@ class FaultLine(PeerTransport):
         clock = self.clock
         end = clock.now + max(timeout, 0.0)
         while True:
-            data: bytes = self._peer(self.injector.data_to_send, clock.now)
+            data: bytes = self._peer(self.injector.output, clock.now)
             if self.injector.disconnect_requested:
                 raise self._cut()
             if data:

@@ -32,13 +32,13 @@ class SimHarness:
 
     def take(self) -> bytes:
         try:
-            return self.sim.data_to_send(self.now)
+            return self.sim.output(self.now)
         except Exception as exc:
             raise Violation(f"VirtualController.data_to_send raised {exc!r}") from exc
 
     def give(self, data: bytes) -> None:
         try:
-            self.sim.receive_data(data, self.now)
+            self.sim.feed(data, self.now)
         except Exception as exc:
             raise Violation(f"VirtualController.receive_data({data!r}) raised {exc!r}") from exc
 

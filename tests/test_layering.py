@@ -14,6 +14,7 @@ from pathlib import Path
 import pytest
 
 import robostar
+from robostar.serve.faces import FACES
 
 SRC = Path(robostar.__file__).parent
 
@@ -24,7 +25,8 @@ LAYER = {
     "commands": 3,
     "client": 4,
     "sim": 4,
-    "serving": 4,
+    "controller_role": 4,
+    "listen": 1,
     "serve": 5,
     "cli": 6,
     "": 6,
@@ -35,11 +37,12 @@ re-exports from the top): a part may import only parts of lower or equal rank.""
 TRANSPORT_MAY_NOT_IMPORT = frozenset(("protocol", "commands", "client", "cli"))
 """transport is a byte pipe: it knows nothing of the protocol, and the client sits above it."""
 
-SERVING_MAY_NOT_IMPORT = frozenset(("sim", "client", "cli", ""))
-"""serving is the N1 controller role for the simulator and the line server: it knows neither."""
+CONTROLLER_ROLE_MAY_NOT_IMPORT = frozenset(("sim", "client", "cli", "serve", ""))
+"""controller_role is the N1 controller role for the simulator and the line server: it knows
+neither."""
 
-SANS_IO_SERVING = frozenset(("robostar.serving.session",))
-"""The serving session is sans-IO like the core (the hosts around it do the I/O)."""
+SANS_IO_SERVING = frozenset(("robostar.controller_role.session",))
+"""The controller-role session is sans-IO like the core (the hosts around it do the I/O)."""
 
 SERVE_MAY_NOT_IMPORT = frozenset(("sim", "cli", ""))
 """The line server owns lines by URL (sim:// included): it never imports the simulator itself."""
@@ -119,7 +122,9 @@ def part_of(dotted: str) -> str | None:
 def _face(dotted: str) -> str | None:
     """The face a module belongs to (``robostar.serve.faces.NAME...``), else None."""
     parts = dotted.split(".")
-    return parts[3] if len(parts) > 3 and parts[:3] == ["robostar", "serve", "faces"] else None
+    if len(parts) > 3 and parts[:3] == ["robostar", "serve", "faces"] and parts[3] in FACES:
+        return parts[3]
+    return None  # the registry (robostar.serve.faces itself: Face, create_face) is no face
 
 
 def layering_violations(found: list[Import]) -> list[str]:
@@ -134,14 +139,16 @@ def layering_violations(found: list[Import]) -> list[str]:
             continue
         if source is None or target is None or source == target:
             continue
-        if source == "serving" and target in SERVING_MAY_NOT_IMPORT:
-            problems.append(f"{where}: serving knows nothing of {target or 'the facade'}")
+        if source == "controller_role" and target in CONTROLLER_ROLE_MAY_NOT_IMPORT:
+            problems.append(f"{where}: controller_role knows nothing of {target or 'the facade'}")
         elif (
-            source == "serving"
+            source == "controller_role"
             and target == "transport"
             and not imp.target.startswith("robostar.transport.peer")
         ):
-            problems.append(f"{where}: serving takes only the byte-peer interface of transport")
+            problems.append(
+                f"{where}: controller_role takes only the byte-peer interface of transport"
+            )
         elif source == "serve" and target in SERVE_MAY_NOT_IMPORT:
             problems.append(f"{where}: serve knows nothing of {target or 'the facade'}")
         elif source == "transport" and target in TRANSPORT_MAY_NOT_IMPORT:
@@ -191,9 +198,13 @@ def test_protocol_and_commands_do_no_io() -> None:
         ("robostar.transport.tcp", "from robostar import client\n", False),
         ("robostar.protocol.link", "from robostar.transport import BytePeer\n", False),
         ("robostar.commands", "from .. import client\n", True),
-        ("robostar.serving.session", "from robostar.sim.model import Model\n", False),
-        ("robostar.serving.aio", "from robostar.transport.tcp import TcpTransport\n", False),
-        ("robostar.serving", "from robostar.client import Client\n", True),
+        ("robostar.controller_role.session", "from robostar.sim.model import Model\n", False),
+        (
+            "robostar.controller_role.limits",
+            "from robostar.transport.tcp import TcpTransport\n",
+            False,
+        ),
+        ("robostar.controller_role", "from robostar.client import Client\n", True),
         ("robostar.protocol.frame", "import robostar\n", False),
         ("robostar.serve.line", "from robostar.sim import VirtualController\n", False),
         ("robostar.serve.faces.api", "from robostar.serve.faces.n1 import N1Face\n", False),
@@ -219,9 +230,17 @@ def test_the_layering_check_catches_a_wrong_import(
         ("robostar.client.sync", "from robostar.transport import open_url\n", False),
         ("robostar.cli.main", "from robostar import __version__\n", False),
         ("robostar", "from robostar.client import Client\n", True),
-        ("robostar.sim.server", "from robostar.serving import Session\n", False),
-        ("robostar.serving.aio", "from robostar.transport.peer import BytePeer\n", False),
-        ("robostar.serving.session", "from robostar.commands import decode_request\n", False),
+        (
+            "robostar.sim.listeners",
+            "from robostar.controller_role import ControllerSession\n",
+            False,
+        ),
+        ("robostar.serve.faces.n1.host", "from robostar.transport.peer import BytePeer\n", False),
+        (
+            "robostar.controller_role.session",
+            "from robostar.commands import decode_request\n",
+            False,
+        ),
     ],
 )
 def test_the_layering_check_passes_a_right_import(

@@ -40,10 +40,10 @@ def main(out: str = "docs/img", chromium: str = "/usr/bin/chromium") -> None:
 
     from robostar.serve.config import LineConfig, ServeConfig
     from robostar.serve.faces.web import WebFace
-    from robostar.serve.server import LineServer
+    from robostar.serve.line_server import LineServer
     from robostar.serve.users import Role, UserStore
     from robostar.sim import SimConfig, VirtualController
-    from robostar.sim.server import SimServer
+    from robostar.sim.listeners import SimServer
 
     folder = Path(out)
     folder.mkdir(parents=True, exist_ok=True)

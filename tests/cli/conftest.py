@@ -70,7 +70,7 @@ class SimLine:
 @pytest.fixture
 def sim_line() -> Iterator[SimLine]:
     from robostar.sim import SimConfig, VirtualController
-    from robostar.sim.server import PeerHost
+    from robostar.sim.listeners import PeerHost
 
     controller = VirtualController(SimConfig(speedup=50))
     host = PeerHost(controller, name="cli-test")
@@ -240,19 +240,19 @@ class RealControllerStandIn:
         self._answers = FrameDecoder()
         self._last_request = b""
 
-    def receive_data(self, data: bytes, now: float) -> None:
+    def feed(self, data: bytes, now: float) -> None:
         from robostar.protocol.frame import Packet
 
         for event in self._requests.feed(data):
             if isinstance(event, Packet):
                 self._last_request = event.data
-        self.controller.receive_data(data, now)
+        self.controller.feed(data, now)
 
-    def data_to_send(self, now: float) -> bytes:
+    def output(self, now: float) -> bytes:
         from robostar.protocol.frame import Control, Packet, encode_packet
 
         out = bytearray()
-        for event in self._answers.feed(self.controller.data_to_send(now)):
+        for event in self._answers.feed(self.controller.output(now)):
             if isinstance(event, Packet):
                 out += encode_packet(self._as_real(event.data))
             elif isinstance(event, Control):
@@ -279,7 +279,7 @@ class RealControllerStandIn:
 def served() -> Iterator[Callable[..., str]]:
     """Serve a byte peer (a VirtualController, a stand-in) for the test and return its --port
     URL: TCP on 127.0.0.1, or with ``pty=True`` a pseudo-terminal's device."""
-    from robostar.sim.server import PtyServer, SimServer
+    from robostar.sim.listeners import PtyServer, SimServer
 
     servers: list[Any] = []
 

@@ -288,12 +288,12 @@ def test_a_backup_that_cannot_be_written_is_not_called_a_cable_fault(tmp_path: P
 def test_only_port_errors_are_called_port_errors(
     run: Run, monkeypatch: pytest.MonkeyPatch, error: OSError, code: int, words: str
 ) -> None:
-    from robostar.cli.session import Session
+    from robostar.cli.session import ConsoleSession
 
-    def send(self: Session, command: Any) -> Any:
+    def send(self: ConsoleSession, command: Any) -> Any:
         raise error
 
-    monkeypatch.setattr(Session, "send", send)
+    monkeypatch.setattr(ConsoleSession, "send", send)
     result = run("files", "rm", "OLD.JOB")
     assert result.exit_code == code
     assert words in result.stderr

@@ -15,7 +15,7 @@ from robostar.client import Client
 @pytest.fixture
 def slow_line() -> Iterator[tuple[Any, str]]:
     from robostar.sim import SimConfig, VirtualController
-    from robostar.sim.server import PeerHost
+    from robostar.sim.listeners import PeerHost
 
     controller = VirtualController(SimConfig(speedup=1))
     host = PeerHost(controller, name="interrupt-test")
@@ -59,19 +59,19 @@ def test_ctrl_c_stops_the_move_it_started(terminal: Any, slow_line: tuple[Any, s
 def _interrupt_at(monkeypatch: pytest.MonkeyPatch, hit: Any) -> None:
     """Ctrl-C as the frame for which ``hit(record, count)`` holds goes out (the trace sees
     every frame just before the port does)."""
-    from robostar.cli.session import Session
+    from robostar.cli.session import ConsoleSession
 
-    original = Session._on_frame
+    original = ConsoleSession._on_frame
     seen = {"n": 0}
 
-    def on_frame(self: Session, record: Any) -> None:
+    def on_frame(self: ConsoleSession, record: Any) -> None:
         original(self, record)
         if record.direction == "tx":
             seen["n"] += 1
             if hit(record, seen["n"]):
                 raise KeyboardInterrupt
 
-    monkeypatch.setattr(Session, "_on_frame", on_frame)
+    monkeypatch.setattr(ConsoleSession, "_on_frame", on_frame)
 
 
 def test_ctrl_c_during_an_upload_names_the_file_and_the_lines(
@@ -151,10 +151,10 @@ def test_ctrl_c_during_a_backup_says_the_previous_one_is_intact(
 def paced_line() -> Iterator[str]:
     """A served simulator behind a 2400-baud line: an upload of 100 lines takes seconds."""
     from robostar.sim import SimConfig, VirtualController
-    from robostar.sim.server import PeerHost, SimLines
+    from robostar.sim.listeners import PeerHost, SimSessions
 
     controller = VirtualController(SimConfig(speedup=50))
-    host = PeerHost(SimLines(controller, baud=2400), name="paced-interrupt-test")
+    host = PeerHost(SimSessions(controller, baud=2400), name="paced-interrupt-test")
     address = host.listen_tcp("127.0.0.1", 0)
     host.start()
     try:

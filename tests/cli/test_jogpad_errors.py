@@ -17,7 +17,7 @@ from typing import Any
 import pytest
 
 from robostar.cli.jogpad import JogPad, StartJog, StopJog, _PadRunner, _View
-from robostar.cli.session import Session, Settings
+from robostar.cli.session import ConsoleSession, Settings
 from robostar.commands.control import SetSpeed
 from robostar.commands.motion import JogStop
 from robostar.commands.status import ReadPosition
@@ -28,10 +28,10 @@ pytestmark = pytest.mark.timeout(60)
 
 
 @pytest.fixture
-def session() -> Iterator[Session]:
+def session() -> Iterator[ConsoleSession]:
     _OTHERS.clear()
     _OTHERS.update(threading.enumerate())
-    session = Session(Settings("sim://", None, False, None, 1, False))
+    session = ConsoleSession(Settings("sim://", None, False, None, 1, False))
     session.client.execute(SetSpeed(1, 50))
     try:
         yield session
@@ -39,7 +39,7 @@ def session() -> Iterator[Session]:
         session.close()
 
 
-def _axis(session: Session) -> float:
+def _axis(session: ConsoleSession) -> float:
     return session.client.execute(ReadPosition(1, PositionKind.ANGLE)).axes[0]
 
 
@@ -55,14 +55,14 @@ def _keepalives() -> list[str]:
     ]
 
 
-def _still(session: Session, seconds: float = 0.6) -> bool:
+def _still(session: ConsoleSession, seconds: float = 0.6) -> bool:
     before = _axis(session)
     time.sleep(seconds)
     return _axis(session) == before
 
 
 def test_a_failed_speed_change_while_jogging_stops_the_jog(
-    session: Session, monkeypatch: Any
+    session: ConsoleSession, monkeypatch: Any
 ) -> None:
     client = session.client
     real_execute = client.execute
@@ -91,7 +91,7 @@ def test_a_failed_speed_change_while_jogging_stops_the_jog(
 
 
 def test_a_reversal_whose_bg_answer_is_lost_is_still_tracked(
-    session: Session, monkeypatch: Any
+    session: ConsoleSession, monkeypatch: Any
 ) -> None:
     client = session.client
     real_call = client._call

@@ -15,7 +15,7 @@ import pytest
 from robostar.cli.jogpad import JogPad, Quit, StopMove
 from robostar.client import Client
 from robostar.sim import SimConfig, VirtualController
-from robostar.sim.server import PeerHost
+from robostar.sim.listeners import PeerHost
 from robostar.types import PositionKind
 
 pytestmark = pytest.mark.timeout(120)

@@ -13,7 +13,7 @@ from rich.cells import cell_len
 
 from robostar.cli import cli
 from robostar.sim import SimConfig
-from robostar.sim.server import serve
+from robostar.sim.listeners import serve
 
 Run = Callable[..., Result]
 AsJson = Callable[[Result], Any]

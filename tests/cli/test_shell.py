@@ -10,7 +10,7 @@ from typing import Any
 import pytest
 from click.testing import Result
 
-from robostar.cli.session import Session, Settings
+from robostar.cli.session import ConsoleSession, Settings
 from robostar.cli.shell import ShellState, candidates, split_line
 
 Run = Callable[..., Result]
@@ -54,7 +54,7 @@ def test_split_line_aliases_and_quotes() -> None:
 
 
 def test_completion_candidates() -> None:
-    session = Session(Settings("sim://", None, False, None, 1, False))
+    session = ConsoleSession(Settings("sim://", None, False, None, 1, False))
     state = ShellState(session)
     try:
         assert "status" in candidates(state, [], "st")

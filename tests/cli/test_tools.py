@@ -71,7 +71,7 @@ def test_doctor_on_the_simulator(run: Run, as_json: AsJson) -> None:
 
 def test_doctor_over_a_serial_line() -> None:
     from robostar.sim import SimConfig, VirtualController
-    from robostar.sim.server import PeerHost
+    from robostar.sim.listeners import PeerHost
 
     host = PeerHost(VirtualController(SimConfig(speedup=50)))
     device = host.open_pty()

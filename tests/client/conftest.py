@@ -2,8 +2,8 @@
 
 ``robot`` is the contract fixture: a client (blocking, or the asyncio client behind a blocking
 bridge) talking to a fresh :class:`~robostar.sim.VirtualController` in memory, over TCP to a
-:class:`~robostar.sim.server.SimServer`, or through a pseudo-terminal served by
-:class:`~robostar.sim.server.PtyServer` (the real serial path through pyserial).
+:class:`~robostar.sim.listeners.SimServer`, or through a pseudo-terminal served by
+:class:`~robostar.sim.listeners.PtyServer` (the real serial path through pyserial).
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ import pytest
 
 from robostar.client import AsyncClient, AsyncJog, Client
 from robostar.sim import SimConfig, VirtualController
-from robostar.sim.server import PeerHost, PtyServer, SimServer
+from robostar.sim.listeners import PeerHost, PtyServer, SimServer
 from robostar.transport import AsyncPeerTransport, BytePeer, PeerTransport
 
 LINES = ["memory", "tcp", "pty"] if os.name == "posix" else ["memory", "tcp"]

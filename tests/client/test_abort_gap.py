@@ -21,7 +21,7 @@ from robostar import AsyncClient
 from robostar.protocol.frame import encode_packet
 from robostar.sim.config import SimConfig
 from robostar.sim.controller import VirtualController
-from robostar.sim.server import SimServer
+from robostar.sim.listeners import SimServer
 
 from .delay_relay import DelayRelay
 

@@ -20,7 +20,7 @@ import pytest
 from robostar import AsyncClient
 from robostar.sim.config import SimConfig
 from robostar.sim.controller import VirtualController
-from robostar.sim.server import SimServer
+from robostar.sim.listeners import SimServer
 
 from .delay_relay import DelayRelay
 

@@ -13,7 +13,7 @@ from robostar import AsyncClient, Client, probe
 from robostar.client import TraceRecord
 from robostar.errors import PortError, UsageError
 from robostar.sim import VirtualController
-from robostar.sim.server import PtyServer
+from robostar.sim.listeners import PtyServer
 from robostar.transport import PeerTransport
 
 from .conftest import sim_config

@@ -28,7 +28,7 @@ from robostar.errors import (
 )
 from robostar.sim import VirtualController
 from robostar.sim.faults import FaultInjector
-from robostar.sim.server import SimServer
+from robostar.sim.listeners import SimServer
 from robostar.transport import PeerTransport
 
 from .conftest import sim_config

@@ -48,7 +48,7 @@ class Scripted:
     _decoder: FrameDecoder = field(default_factory=FrameDecoder)
     _queue: list[tuple[float, bytes]] = field(default_factory=list)
 
-    def receive_data(self, data: bytes, now: float) -> None:
+    def feed(self, data: bytes, now: float) -> None:
         for event in self._decoder.feed(data):
             if isinstance(event, Packet):
                 self.requests.append(event.data)
@@ -65,7 +65,7 @@ class Scripted:
         self._queue += [(now + delay, data) for delay, data in reply]
         self._queue.sort(key=lambda item: item[0])
 
-    def data_to_send(self, now: float) -> bytes:
+    def output(self, now: float) -> bytes:
         due = [data for at, data in self._queue if at <= now]
         self._queue = [(at, data) for at, data in self._queue if at > now]
         return b"".join(due)

@@ -25,7 +25,7 @@ from robostar.errors import OutcomeUnknownError, PortError
 from robostar.protocol.frame import FrameDecoder, Packet
 from robostar.sim import VirtualController
 from robostar.sim.faults import FaultInjector
-from robostar.sim.server import SimServer
+from robostar.sim.listeners import SimServer
 from robostar.transport import AsyncPeerTransport, BytePeer, PeerTransport
 
 from .conftest import sim_config
@@ -45,14 +45,14 @@ class Arrivals:
         self._decoder = FrameDecoder()
         self.times: list[tuple[float, str]] = []
 
-    def receive_data(self, data: bytes, now: float) -> None:
+    def feed(self, data: bytes, now: float) -> None:
         for event in self._decoder.feed(data):
             if isinstance(event, Packet) and event.data[:1] == b"\xff":
                 self.times.append((now, event.data[1:3].decode()))
-        self.peer.receive_data(data, now)
+        self.peer.feed(data, now)
 
-    def data_to_send(self, now: float) -> bytes:
-        return self.peer.data_to_send(now)
+    def output(self, now: float) -> bytes:
+        return self.peer.output(now)
 
     def next_deadline(self) -> float | None:
         return self.peer.next_deadline()

@@ -135,7 +135,7 @@ def test_ctrl_c_at_any_moment_never_breaks_a_shared_clients_lock() -> None:
 
     from robostar import Client
     from robostar.sim import SimConfig, VirtualController
-    from robostar.sim.server import SimServer
+    from robostar.sim.listeners import SimServer
 
     stop = threading.Event()
     errors: list[BaseException] = []
@@ -200,7 +200,7 @@ def test_cancelling_tasks_at_any_moment_never_breaks_a_shared_async_client() -> 
 
     from robostar import AsyncClient
     from robostar.sim import SimConfig, VirtualController
-    from robostar.sim.server import SimServer
+    from robostar.sim.listeners import SimServer
 
     async def main(url: str) -> tuple[int, int]:
         rng = random.Random(3)

@@ -316,10 +316,10 @@ def test_sim_url_builds_the_simulator_from_its_query() -> None:
 
 def test_peer_transport_waits_for_the_peer_but_not_past_its_timeout() -> None:
     class Silent:
-        def receive_data(self, data: bytes, now: float) -> None:
+        def feed(self, data: bytes, now: float) -> None:
             pass
 
-        def data_to_send(self, now: float) -> bytes:
+        def output(self, now: float) -> bytes:
             return b""
 
         def next_deadline(self) -> float | None:
@@ -548,10 +548,10 @@ def test_async_read_answering_is_read_where_nothing_can_be_offered(
 
 
 class CannedPeerForNowait:
-    def receive_data(self, data: bytes, now: float) -> None:
+    def feed(self, data: bytes, now: float) -> None:
         pass
 
-    def data_to_send(self, now: float) -> bytes:
+    def output(self, now: float) -> bytes:
         return b""
 
     def next_deadline(self) -> float | None:

@@ -68,5 +68,5 @@ def test_the_simulator_takes_bytes_one_at_a_time(harness: SimHarness, parts: lis
 )
 def test_a_request_and_more_in_one_read_does_not_crash_the_simulator(chunk: bytes) -> None:
     sim = VirtualController(SimConfig())
-    sim.receive_data(chunk, 1.0)
-    sim.data_to_send(1.0)
+    sim.feed(chunk, 1.0)
+    sim.output(1.0)

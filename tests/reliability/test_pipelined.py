@@ -27,13 +27,13 @@ KINDS = (
 
 def _drive(injector: FaultInjector, start: float, seconds: float) -> float:
     """Feed the pair, ACK every answer packet, for ``seconds`` of fake time."""
-    injector.receive_data(PAIR, start)
+    injector.feed(PAIR, start)
     decoder = FrameDecoder()
     now = start
     while now < start + seconds:
-        for event in decoder.feed(injector.data_to_send(now)):
+        for event in decoder.feed(injector.output(now)):
             if isinstance(event, Packet):
-                injector.receive_data(bytes((ACK,)), now)
+                injector.feed(bytes((ACK,)), now)
         now = round(now + 0.01, 6)
     return now
 
@@ -45,14 +45,14 @@ def _next_exchange_works(injector: FaultInjector, now: float) -> bool:
     while now < end:
         out = host.data_to_send()
         if out:
-            injector.receive_data(out, now)
-        data = injector.data_to_send(now)
+            injector.feed(out, now)
+        data = injector.output(now)
         if data:
             events += host.receive_data(data, now)
         events += host.handle_timeout(now)
         out = host.data_to_send()
         if out:
-            injector.receive_data(out, now)
+            injector.feed(out, now)
         if any(isinstance(e, ExchangeComplete) for e in events):
             return True
         if any(isinstance(e, ExchangeFailed) for e in events):

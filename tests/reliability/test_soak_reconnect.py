@@ -22,7 +22,7 @@ from robostar.commands.variables import WriteGlobalInt
 from robostar.errors import OutcomeUnknownError, PortError, ReplyTimeoutError
 from robostar.sim import SimConfig, VirtualController
 from robostar.sim.faults import FaultInjector, FaultKind
-from robostar.sim.server import SimServer
+from robostar.sim.listeners import SimServer
 from robostar.types import Point
 
 LONG = 30.0

@@ -16,8 +16,7 @@ from robostar.errors import UsageError
 from robostar.protocol.frame import encode_packet
 from robostar.serve import LineConfig, LineServer, ServeConfig
 from robostar.serve.faces import create_face
-from robostar.serving import AsyncHost
-from robostar.serving.aio import parse_networks
+from robostar.serve.faces.n1.host import AsyncHost, parse_networks
 
 _ACK = b"\x06"
 _STX, _ETX = 0x02, 0x03

@@ -12,11 +12,11 @@ from pathlib import Path
 import pytest
 
 from robostar.commands.control import SetSpeed
+from robostar.controller_role import ControllerSession
 from robostar.protocol.frame import RST, encode_packet
 from robostar.serve import LineConfig
+from robostar.serve.faces.n1.backend import N1Backend
 from robostar.serve.line import Line
-from robostar.serve.n1serve import LineBackend
-from robostar.serving import Session
 
 from .line_fakes import FaultySim, hold_the_line, n1_server
 
@@ -56,14 +56,14 @@ def test_a_give_up_before_the_task_ran_withdraws_the_write(separate_reads: bool)
         try:
             await line.wait_polled()
             busy = await hold_the_line(line, sim)
-            session = Session(LineBackend(line), name="h1")
+            session = ControllerSession(N1Backend(line), name="h1")
             now = asyncio.get_running_loop().time()
             request = encode_packet(SetSpeed(1, 561).encode())
             if separate_reads:
-                session.receive_data(request, now)
-                session.receive_data(bytes([RST]), now)  # before the backend's task has run
+                session.feed(request, now)
+                session.feed(bytes([RST]), now)  # before the backend's task has run
             else:
-                session.receive_data(request + bytes([RST]), now)
+                session.feed(request + bytes([RST]), now)
             await busy
             sim.write_delay = 0.0
             await asyncio.sleep(0.5)

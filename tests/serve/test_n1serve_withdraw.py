@@ -9,11 +9,11 @@ import json
 from pathlib import Path
 
 from robostar.commands.control import ReadSpeed, SetSpeed
+from robostar.controller_role import ControllerSession
 from robostar.protocol.frame import RST, encode_packet
 from robostar.serve import LineConfig, Who
+from robostar.serve.faces.n1.backend import N1Backend
 from robostar.serve.line import Line
-from robostar.serve.n1serve import LineBackend
-from robostar.serving import Session
 
 from .line_fakes import FaultySim, hold_the_line, n1_server, wait_for
 
@@ -62,10 +62,10 @@ def test_a_request_whose_connection_closed_before_it_was_served_is_never_queued(
         await line.start()
         try:
             await line.wait_polled()
-            backend = LineBackend(line)
-            session = Session(backend, name="h1")
+            backend = N1Backend(line)
+            session = ControllerSession(backend, name="h1")
             loop = asyncio.get_running_loop()
-            session.receive_data(encode_packet(SetSpeed(1, 559).encode()), loop.time())
+            session.feed(encode_packet(SetSpeed(1, 559).encode()), loop.time())
             session.close()  # the connection drops before the backend's task has run
             await asyncio.sleep(0.2)
             assert line.lease.holder is None  # not taken for a session already gone

@@ -11,8 +11,8 @@ import pytest
 from robostar import AsyncClient, Client
 from robostar.errors import PortError
 from robostar.serve import LineConfig, LineServer, ServeConfig
+from robostar.transport.line_server import ServeTransport, resolve_line
 from robostar.transport.opener import async_transport_for_url, transport_for_url
-from robostar.transport.serve import ServeTransport, resolve_line
 
 
 def _has_ipv6_loopback() -> bool:

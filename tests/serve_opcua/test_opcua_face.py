@@ -28,7 +28,7 @@ from robostar.serve.lease import Who
 from robostar.serve.model import Quality
 from robostar.serve.users import LoginLimiter, Role, UserStore
 from robostar.sim import SimConfig, VirtualController
-from robostar.sim.server import SimServer
+from robostar.sim.listeners import SimServer
 from robostar.types import Alarm, CoordSystem, MotionType, PositionKind
 
 from .conftest import PASSWORDS, Model, Setup, connect, serving, until

@@ -17,13 +17,13 @@ from web_harness import CHROMIUM, PASSWORDS, ROLES, Stack
 
 from robostar.commands.files import LINE_MAX
 from robostar.commands.job import MAX_STEP
+from robostar.controller_role import UploadLimits
 from robostar.serve.config import LineConfig, ServeConfig
 from robostar.serve.faces.web import WebFace
-from robostar.serve.server import LineServer
+from robostar.serve.line_server import LineServer
 from robostar.serve.users import UserStore
-from robostar.serving import UploadLimits
 from robostar.sim import SimConfig, VirtualController
-from robostar.sim.server import SimServer
+from robostar.sim.listeners import SimServer
 
 
 @pytest.fixture(scope="module")

@@ -22,7 +22,7 @@ from web_harness import PASSWORDS, Stack, csrf_of, login
 
 from robostar.serve.config import LineConfig, ServeConfig
 from robostar.serve.faces.web import WebFace
-from robostar.serve.server import LineServer
+from robostar.serve.line_server import LineServer
 from robostar.serve.users import Role, UserStore
 
 SPEED = {"action": "speed", "channel": 1, "speed": 321, "confirmed": True}

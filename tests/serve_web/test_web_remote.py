@@ -9,7 +9,7 @@ import pytest
 from robostar.errors import UsageError
 from robostar.serve.config import ServeConfig
 from robostar.serve.faces.web import WebFace
-from robostar.serve.server import LineServer
+from robostar.serve.line_server import LineServer
 
 
 def _server() -> LineServer:

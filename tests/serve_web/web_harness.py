@@ -25,10 +25,10 @@ import pytest
 pytest.importorskip("starlette", reason="the web face needs the 'web' extra")
 
 from robostar.serve.faces.web import WebFace
-from robostar.serve.server import LineServer
+from robostar.serve.line_server import LineServer
 from robostar.serve.users import Role
 from robostar.sim import VirtualController
-from robostar.sim.server import SimServer
+from robostar.sim.listeners import SimServer
 
 T = TypeVar("T")
 

@@ -49,7 +49,7 @@ class Harness:
         self.model = self.controller.model
         self.host = HostLink(timeout=2.0)
         self.now = 0.0
-        self.controller.data_to_send(self.now)
+        self.controller.output(self.now)
 
     # -- the line --------------------------------------------------------------------------------
     def _pump(self) -> tuple[list[Any], bool]:
@@ -59,8 +59,8 @@ class Harness:
         out = self.host.data_to_send()
         if out:
             moved = True
-            self.controller.receive_data(out, self.now)
-        back = self.controller.data_to_send(self.now)
+            self.controller.feed(out, self.now)
+        back = self.controller.output(self.now)
         if back:
             moved = True
             events += self.host.receive_data(back, self.now)
@@ -69,7 +69,7 @@ class Harness:
     def _flush(self) -> None:
         out = self.host.data_to_send()
         if out:
-            self.controller.receive_data(out, self.now)
+            self.controller.feed(out, self.now)
 
     def _step_clock(self, limit: float | None = None) -> bool:
         deadlines = [

@@ -11,7 +11,7 @@ from robostar import Client
 from robostar.cli import cli
 from robostar.sim import SimConfig
 from robostar.sim.control import send_control
-from robostar.sim.server import parse_listen, serve
+from robostar.sim.listeners import parse_listen, serve
 
 
 @pytest.fixture

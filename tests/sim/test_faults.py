@@ -49,10 +49,10 @@ class Recorder:
         self.received = bytearray()
         self.outbox = bytearray()
 
-    def receive_data(self, data: bytes, now: float) -> None:
+    def feed(self, data: bytes, now: float) -> None:
         self.received += data
 
-    def data_to_send(self, now: float) -> bytes:
+    def output(self, now: float) -> bytes:
         out = bytes(self.outbox)
         self.outbox.clear()
         return out
@@ -68,13 +68,13 @@ class CannedController:
         self.link = ControllerLink(timeout=2.0)
         self.requests: list[bytes] = []
 
-    def receive_data(self, data: bytes, now: float) -> None:
+    def feed(self, data: bytes, now: float) -> None:
         for event in self.link.receive_data(data, now):
             if isinstance(event, RequestReceived):
                 self.requests.append(event.data)
                 self.link.send_answer([ANSWER[1:-2]], After.DONE, now)
 
-    def data_to_send(self, now: float) -> bytes:
+    def output(self, now: float) -> bytes:
         self.link.handle_timeout(now)
         return self.link.data_to_send()
 
@@ -84,9 +84,9 @@ class CannedController:
 
 def answer_through(injector: FaultInjector, rec: Recorder, now: float = 0.0) -> bytes:
     """Send REQUEST, let the inner peer answer ANSWER, return what reaches the host."""
-    injector.receive_data(REQUEST, now)
+    injector.feed(REQUEST, now)
     rec.outbox += ANSWER
-    return injector.data_to_send(now)
+    return injector.output(now)
 
 
 def run_exchange(peer: BytePeer, *, limit: float = 20.0) -> list[LinkEvent]:
@@ -97,14 +97,14 @@ def run_exchange(peer: BytePeer, *, limit: float = 20.0) -> list[LinkEvent]:
     while now < limit:
         wire = host.data_to_send()
         if wire:
-            peer.receive_data(wire, now)
-        out = peer.data_to_send(now)
+            peer.feed(wire, now)
+        out = peer.output(now)
         if out:
             events += host.receive_data(out, now)
         events += host.handle_timeout(now)
         wire = host.data_to_send()
         if wire:
-            peer.receive_data(wire, now)
+            peer.feed(wire, now)
         if any(isinstance(e, ExchangeComplete | ExchangeFailed) for e in events):
             return events
         now = round(now + 0.01, 6)
@@ -137,7 +137,7 @@ def test_drop_to_controller_removes_exactly_byte_k(k: int) -> None:
     rec = Recorder()
     injector = FaultInjector(rec)
     injector.schedule("drop", "to_controller", at_byte=k)
-    injector.receive_data(REQUEST, 0.0)
+    injector.feed(REQUEST, 0.0)
     assert bytes(rec.received) == REQUEST[:k] + REQUEST[k + 1 :]
 
 
@@ -185,8 +185,8 @@ def test_delay_holds_the_answer_from_byte_k(k: int) -> None:
     injector.schedule(FaultKind.DELAY, at_byte=k, seconds=0.5)
     assert answer_through(injector, rec, now=10.0) == ANSWER[:k]
     assert injector.next_deadline() == 10.5
-    assert injector.data_to_send(10.49) == b""
-    assert injector.data_to_send(10.5) == ANSWER[k:]
+    assert injector.output(10.49) == b""
+    assert injector.output(10.5) == ANSWER[k:]
     assert injector.next_deadline() is None
 
 
@@ -196,10 +196,10 @@ def test_bytes_produced_during_a_delay_keep_their_order() -> None:
     injector.schedule(FaultKind.DELAY, at_byte=2, seconds=1.0)
     assert answer_through(injector, rec) == ANSWER[:2]
     rec.outbox += b"\x06"
-    assert injector.data_to_send(0.5) == b""
-    assert injector.data_to_send(1.0) == ANSWER[2:] + b"\x06"
+    assert injector.output(0.5) == b""
+    assert injector.output(1.0) == ANSWER[2:] + b"\x06"
     rec.outbox += b"\x15"
-    assert injector.data_to_send(1.2) == b"\x15"  # the hold is over
+    assert injector.output(1.2) == b"\x15"  # the hold is over
 
 
 @pytest.mark.parametrize("k", range(len(ANSWER)))
@@ -209,7 +209,7 @@ def test_disconnect_cuts_the_line_at_byte_k_until_taken(k: int) -> None:
     injector.schedule(FaultKind.DISCONNECT, at_byte=k)
     assert answer_through(injector, rec) == ANSWER[:k]
     assert injector.disconnect_requested
-    injector.receive_data(b"\x06", 0.1)  # the host's bytes are lost too
+    injector.feed(b"\x06", 0.1)  # the host's bytes are lost too
     assert bytes(rec.received) == REQUEST
     assert injector.take_disconnect() is True
     assert injector.take_disconnect() is False
@@ -242,9 +242,9 @@ def test_corrupt_lrc_for_the_next_n_packets() -> None:
     rec = Recorder()
     injector = FaultInjector(rec, seed=2)
     injector.schedule(FaultKind.CORRUPT_LRC, count=2)
-    injector.receive_data(REQUEST, 0.0)
+    injector.feed(REQUEST, 0.0)
     rec.outbox += ANSWER * 3
-    events = FrameDecoder().feed(injector.data_to_send(0.0))
+    events = FrameDecoder().feed(injector.output(0.0))
     assert [type(e) for e in events] == [CorruptPacket, CorruptPacket, Packet]
 
 
@@ -259,9 +259,9 @@ def test_a_spoiled_lrc_is_always_refused(data: bytes, seed: int) -> None:
     rec = Recorder()
     injector = FaultInjector(rec, seed=seed)
     injector.schedule(FaultKind.CORRUPT_LRC)
-    injector.receive_data(REQUEST, 0.0)
+    injector.feed(REQUEST, 0.0)
     rec.outbox += encode_packet(data)
-    events = FrameDecoder().feed(injector.data_to_send(0.0))
+    events = FrameDecoder().feed(injector.output(0.0))
     assert len(events) == 1
     assert isinstance(events[0], CorruptPacket)
 
@@ -271,10 +271,10 @@ def test_nak_storm_answers_the_next_packets_with_nak_instead_of_passing_them() -
     injector = FaultInjector(rec)
     injector.schedule(FaultKind.NAK_STORM, count=2)
     for attempt in range(2):
-        injector.receive_data(REQUEST, float(attempt))
-        assert injector.data_to_send(float(attempt)) == bytes((NAK,))
+        injector.feed(REQUEST, float(attempt))
+        assert injector.output(float(attempt)) == bytes((NAK,))
         assert rec.received == b""
-    injector.receive_data(REQUEST, 2.0)
+    injector.feed(REQUEST, 2.0)
     assert bytes(rec.received) == REQUEST
     assert injector.injected[FaultKind.NAK_STORM, Direction.TO_CONTROLLER] == 2
 
@@ -283,17 +283,17 @@ def test_nak_storm_answers_after_the_whole_packet_not_at_its_start() -> None:
     rec = Recorder()
     injector = FaultInjector(rec)
     injector.add("nak*1")
-    injector.receive_data(REQUEST[:3], 0.0)
-    assert injector.data_to_send(0.0) == b""
-    injector.receive_data(REQUEST[3:], 0.0)
-    assert injector.data_to_send(0.0) == bytes((NAK,))
+    injector.feed(REQUEST[:3], 0.0)
+    assert injector.output(0.0) == b""
+    injector.feed(REQUEST[3:], 0.0)
+    assert injector.output(0.0) == bytes((NAK,))
 
 
 def test_nak_storm_lets_control_bytes_through() -> None:
     rec = Recorder()
     injector = FaultInjector(rec)
     injector.add("nak*1")
-    injector.receive_data(bytes((ACK,)), 0.0)
+    injector.feed(bytes((ACK,)), 0.0)
     assert bytes(rec.received) == bytes((ACK,))
 
 
@@ -304,9 +304,9 @@ def test_positions_count_from_the_next_host_packet() -> None:
     injector.schedule(FaultKind.DROP, Direction.TO_CONTROLLER, at_byte=0)
     injector.schedule(FaultKind.DROP, Direction.TO_HOST, at_byte=0)
     # A late ACK of the previous exchange and a stray controller byte are not part of it.
-    injector.receive_data(bytes((ACK,)), 0.0)
+    injector.feed(bytes((ACK,)), 0.0)
     rec.outbox += bytes((NAK,))
-    assert injector.data_to_send(0.0) == bytes((NAK,))
+    assert injector.output(0.0) == bytes((NAK,))
     assert injector.pending != ()
     assert answer_through(injector, rec) == ANSWER[1:]
     assert bytes(rec.received) == bytes((ACK,)) + REQUEST[1:]
@@ -317,20 +317,20 @@ def test_positions_run_on_across_packets_of_the_exchange() -> None:
     injector = FaultInjector(rec)
     second = len(ANSWER) + 1  # the second packet's byte 1
     injector.schedule(FaultKind.DROP, Direction.TO_HOST, at_byte=second)
-    injector.receive_data(REQUEST, 0.0)
+    injector.feed(REQUEST, 0.0)
     rec.outbox += ANSWER * 2
-    assert injector.data_to_send(0.0) == ANSWER + ANSWER[:1] + ANSWER[2:]
+    assert injector.output(0.0) == ANSWER + ANSWER[:1] + ANSWER[2:]
 
 
 def test_positions_do_not_depend_on_how_bytes_are_split() -> None:
     rec = Recorder()
     injector = FaultInjector(rec)
     injector.schedule(FaultKind.CORRUPT, Direction.TO_HOST, at_byte=4, mask=0xFF)
-    injector.receive_data(REQUEST, 0.0)
+    injector.feed(REQUEST, 0.0)
     got = b""
     for byte in ANSWER:
         rec.outbox.append(byte)
-        got += injector.data_to_send(0.0)
+        got += injector.output(0.0)
     want = bytearray(ANSWER)
     want[4] ^= 0xFF
     assert got == bytes(want)
@@ -345,12 +345,12 @@ def _noisy_run(seed: int, chunk: int) -> tuple[bytes, bytes]:
     injector.add("dup:to_controller:0.05")
     stream = REQUEST * 50
     for i in range(0, len(stream), chunk):
-        injector.receive_data(stream[i : i + chunk], 0.0)
+        injector.feed(stream[i : i + chunk], 0.0)
     out = b""
     answers = ANSWER * 50
     for i in range(0, len(answers), chunk):
         rec.outbox += answers[i : i + chunk]
-        out += injector.data_to_send(0.0)
+        out += injector.output(0.0)
     return bytes(rec.received), out
 
 
@@ -365,9 +365,9 @@ def test_rate_faults_hit_at_about_their_rate() -> None:
     rec = Recorder()
     injector = FaultInjector(rec, seed=3)
     injector.add_rate(FaultKind.DROP, 0.1, Direction.TO_HOST)
-    injector.receive_data(REQUEST, 0.0)
+    injector.feed(REQUEST, 0.0)
     rec.outbox += bytes(range(0x40, 0x80)) * 100  # 6400 bytes of noise, no framing
-    got = injector.data_to_send(0.0)
+    got = injector.output(0.0)
     dropped = 6400 - len(got)
     assert injector.total(FaultKind.DROP) == dropped
     assert 500 < dropped < 800
@@ -377,9 +377,9 @@ def test_a_both_ways_rate_hits_both_directions() -> None:
     rec = Recorder()
     injector = FaultInjector(rec, seed=5)
     injector.add("corrupt:1")
-    injector.receive_data(REQUEST, 0.0)
+    injector.feed(REQUEST, 0.0)
     rec.outbox += ANSWER
-    got = injector.data_to_send(0.0)
+    got = injector.output(0.0)
     assert all(a != b for a, b in zip(got, ANSWER, strict=True))
     assert all(a != b for a, b in zip(rec.received, REQUEST, strict=True))
     assert injector.total(direction=Direction.TO_HOST) == len(ANSWER)
@@ -515,9 +515,9 @@ def test_repeat_sends_the_previous_answer_again_before_this_one() -> None:
     assert answer_through(injector, rec) == ANSWER  # the first answer passes
     injector.schedule(FaultKind.REPEAT)
     second = encode_packet(b"\x30\x84\x80\x80")
-    injector.receive_data(REQUEST, 1.0)
+    injector.feed(REQUEST, 1.0)
     rec.outbox += second
-    assert injector.data_to_send(1.0) == ANSWER + second
+    assert injector.output(1.0) == ANSWER + second
     assert injector.injected[FaultKind.REPEAT, Direction.TO_HOST] == 1
 
 
@@ -538,12 +538,12 @@ def test_a_fixed_latency_holds_every_answer_packet() -> None:
     injector = FaultInjector(rec)
     injector.add("latency:0.3")
     for start in (0.0, 5.0):
-        injector.receive_data(REQUEST, start)
+        injector.feed(REQUEST, start)
         rec.outbox += ANSWER
-        assert injector.data_to_send(start) == b""
+        assert injector.output(start) == b""
         assert injector.next_deadline() == pytest.approx(start + 0.3)
-        assert injector.data_to_send(start + 0.2999) == b""
-        assert injector.data_to_send(start + 0.3) == ANSWER
+        assert injector.output(start + 0.2999) == b""
+        assert injector.output(start + 0.3) == ANSWER
 
 
 def test_a_jittered_latency_stays_within_its_bounds() -> None:
@@ -553,13 +553,13 @@ def test_a_jittered_latency_stays_within_its_bounds() -> None:
     holds = []
     for k in range(20):
         start = 10.0 * k
-        injector.receive_data(REQUEST, start)
+        injector.feed(REQUEST, start)
         rec.outbox += ANSWER
-        injector.data_to_send(start)
+        injector.output(start)
         deadline = injector.next_deadline()
         assert deadline is not None
         holds.append(deadline - start)
-        assert injector.data_to_send(deadline) == ANSWER
+        assert injector.output(deadline) == ANSWER
     assert all(0.1 - 1e-9 <= h <= 0.5 + 1e-9 for h in holds)
     assert max(holds) - min(holds) > 0.1  # it does jitter
 

@@ -21,6 +21,7 @@ import serial
 
 from robostar.commands.control import ReadSpeed, SetSpeed
 from robostar.commands.status import ReadStatus
+from robostar.controller_role import ControllerSession
 from robostar.errors import PortError, UsageError
 from robostar.protocol.frame import ACK, NAK, FrameDecoder, Packet, encode_packet
 from robostar.protocol.link import (
@@ -35,11 +36,9 @@ from robostar.protocol.link import (
     RequestReceived,
 )
 from robostar.protocol.packets import Shape
-from robostar.serving import Session
 from robostar.sim import SimConfig, VirtualController
 from robostar.sim.faults import FaultInjector, FaultKind, parse_fault
-from robostar.sim.pacing import PacedPeer
-from robostar.sim.server import (
+from robostar.sim.listeners import (
     PeerHost,
     PtyServer,
     SimServer,
@@ -47,6 +46,7 @@ from robostar.sim.server import (
     parse_listen,
     serve,
 )
+from robostar.sim.pacing import PacedPeer
 
 WAIT = 10.0
 """Upper bound for anything to happen; only reached when a test fails."""
@@ -63,13 +63,13 @@ class Canned:
         self.link = ControllerLink(timeout=ack_timeout)
         self.requests: list[bytes] = []
 
-    def receive_data(self, data: bytes, now: float) -> None:
+    def feed(self, data: bytes, now: float) -> None:
         for event in self.link.receive_data(data, now):
             if isinstance(event, RequestReceived):
                 self.requests.append(event.data)
                 self.link.send_answer([CANNED], After.DONE, now)
 
-    def data_to_send(self, now: float) -> bytes:
+    def output(self, now: float) -> bytes:
         self.link.handle_timeout(now)
         return self.link.data_to_send()
 
@@ -251,7 +251,7 @@ def test_a_disconnect_fault_closes_the_connection_and_the_next_one_works() -> No
 
 def test_a_failing_peer_stops_the_server_and_clients_see_the_end() -> None:
     class Broken(Canned):
-        def receive_data(self, data: bytes, now: float) -> None:
+        def feed(self, data: bytes, now: float) -> None:
             raise RuntimeError("model bug")
 
     with SimServer(Broken()) as server, connect(server) as sock:
@@ -502,7 +502,7 @@ def test_serve_stacks_line_timing_outside_the_faults() -> None:
     assert (peer.baud, peer.turnaround) == (9600, 0.002)
     assert isinstance(peer.peer, FaultInjector)
     assert peer.peer.seed == 6
-    assert isinstance(peer.peer.peer, Session)
+    assert isinstance(peer.peer.peer, ControllerSession)
     assert peer.peer.peer.backend is lines.controller
 
 
@@ -562,6 +562,6 @@ def test_a_fragment_left_on_the_line_would_spoil_the_next_request() -> None:
     # its LRC makes the next client's STX read as that LRC; its request is lost, answered NAK.
     peer = Canned()
     request = encode_packet(AA)
-    peer.receive_data(request[:-1] + request, 0.0)
-    assert peer.data_to_send(0.0) == bytes((NAK,))
+    peer.feed(request[:-1] + request, 0.0)
+    assert peer.output(0.0) == bytes((NAK,))
     assert peer.requests == []

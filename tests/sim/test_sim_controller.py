@@ -83,25 +83,25 @@ def test_a_new_request_drops_a_pending_second_answer_but_not_the_work():
 
 def test_a_nakked_answer_is_resent_not_carried_out_again():
     h = Harness()
-    h.controller.receive_data(encode_packet(SetOutput(0, 1, True).encode()), h.now)
-    answer = h.controller.data_to_send(h.now)
+    h.controller.feed(encode_packet(SetOutput(0, 1, True).encode()), h.now)
+    answer = h.controller.output(h.now)
     assert answer == encode_packet(b"\x30")
     for _ in range(2):
-        h.controller.receive_data(b"\x15", h.now)  # NAK
-        assert h.controller.data_to_send(h.now) == answer
-    h.controller.receive_data(b"\x06", h.now)
+        h.controller.feed(b"\x15", h.now)  # NAK
+        assert h.controller.output(h.now) == answer
+    h.controller.feed(b"\x06", h.now)
     assert h.controller.executions["GC"] == 1
     assert h.controller.link.state is State.LISTEN
 
 
 def test_a_lost_ack_makes_the_controller_resend_after_the_real_timeout():
     h = Harness(speedup=100.0, ack_timeout=0.5)
-    h.controller.receive_data(encode_packet(WriteGlobalInt(3, 5).encode()), h.now)
-    answer = h.controller.data_to_send(h.now)
+    h.controller.feed(encode_packet(WriteGlobalInt(3, 5).encode()), h.now)
+    answer = h.controller.output(h.now)
     assert h.controller.next_deadline() == pytest.approx(h.now + 0.5)
     h.now += 0.5
-    assert h.controller.data_to_send(h.now) == answer
-    h.controller.receive_data(b"\x06", h.now)
+    assert h.controller.output(h.now) == answer
+    h.controller.feed(b"\x06", h.now)
     assert h.controller.executions["GW"] == 1
 
 

@@ -20,8 +20,8 @@ from robostar.commands.status import ReadInfo
 from robostar.protocol.frame import encode_packet
 from robostar.sim import SimConfig, VirtualController
 from robostar.sim.dialects import DIALECTS
+from robostar.sim.listeners import serve
 from robostar.sim.replay import Recorded, ReplayController, mark_identity
-from robostar.sim.server import serve
 from robostar.sim.store import STATE_FILE, StateStore
 from robostar.transport import PeerTransport
 from robostar.types import ChannelInfo, ControllerInfo, RobotType
@@ -83,8 +83,8 @@ def test_ad_carries_the_mark_in_every_dialect(dialect: str) -> None:
 
 def test_the_ad_answer_keeps_the_manuals_widths() -> None:
     sim = VirtualController(SimConfig(name="N1", version="V" * 20))
-    sim.receive_data(AD_REQUEST, 0.0)
-    answer = sim.data_to_send(0.0)
+    sim.feed(AD_REQUEST, 0.0)
+    answer = sim.output(0.0)
     assert answer[:1] == b"\x02" and answer[-2:-1] == b"\x03"
     data = answer[1:-2]
     # FF, FLAG, MAX CH, NAME 15, VER 20, MODEL 3x10, 9 channel bytes.

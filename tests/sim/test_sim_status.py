@@ -130,8 +130,8 @@ def test_error_answer_keeps_the_commands_dummy_byte():
 def test_a_corrupt_packet_is_nakked_and_kd_reports_the_lrc():
     h = Harness()
     good = encode_packet(b"\xffAA")
-    h.controller.receive_data(good[:-1] + bytes((good[-1] ^ 0x55,)), h.now)
-    assert h.controller.data_to_send(h.now) == b"\x15"  # NAK
+    h.controller.feed(good[:-1] + bytes((good[-1] ^ 0x55,)), h.now)
+    assert h.controller.output(h.now) == b"\x15"  # NAK
     assert h.controller.requests == 0
     assert h.ok(ReadLastError()) == "LRC is different with received data LRC"
 

@@ -26,7 +26,7 @@ from robostar.cli.failures import (
 )
 from robostar.cli.options import Finite
 from robostar.cli.render import Output
-from robostar.cli.session import DryRunDone, Session, Settings
+from robostar.cli.session import ConsoleSession, DryRunDone, Settings
 from robostar.errors import ControllerError, RobostarError, UsageError
 
 __all__ = ["SUBCOMMANDS", "RobostarGroup", "cli", "main"]
@@ -114,30 +114,30 @@ class RobostarGroup(click.Group):
             except RobostarError as error:
                 if _refused(error):
                     # Read before the connection closes: did the refusal leave an alarm?
-                    session = ctx.find_object(Session)
+                    session = ctx.find_object(ConsoleSession)
                     if session is not None:
                         session.read_alarms_left()
                 raise
             except KeyboardInterrupt:
-                session = ctx.find_object(Session)
+                session = ctx.find_object(ConsoleSession)
                 if session is not None:
                     session.interrupt_note = session.interrupt_note or session.interrupted_during()
                     session.stop_started_motion()
                 raise
             finally:
-                session = ctx.find_object(Session)
+                session = ctx.find_object(ConsoleSession)
                 if session is not None:
                     session.close()
         except DryRunDone:
             ctx.exit(0)
         except click.UsageError as error:
-            session = ctx.find_object(Session)
+            session = ctx.find_object(ConsoleSession)
             if session is None or not session.out.json:
                 raise
             _json_usage_error(error, session.frames_sent, session.changes_sent, session.out.extra)
             ctx.exit(EXIT_BAD_ARGUMENT)
         except RobostarError as error:
-            session = ctx.find_object(Session)
+            session = ctx.find_object(ConsoleSession)
             port = session.port_label if session else "?"
             out = session.out if session else Output(False)
             sent = (session.frames_sent, session.changes_sent) if session else (0, 0)
@@ -147,12 +147,12 @@ class RobostarGroup(click.Group):
             out.failure(failure)
             ctx.exit(failure.exit_code)
         except KeyboardInterrupt as interrupt:
-            session = ctx.find_object(Session)
+            session = ctx.find_object(ConsoleSession)
             out = session.out if session else Output(False)
             out.failure(_interrupted(interrupt, session))
             ctx.exit(EXIT_INTERRUPTED)
         except OSError as error:
-            session = ctx.find_object(Session)
+            session = ctx.find_object(ConsoleSession)
             out = session.out if session else Output(False)
             if _is_local(error):
                 # A file on this computer (disk full, no permission): not the line's fault.
@@ -193,7 +193,7 @@ def _is_local(error: OSError) -> bool:
     return error.filename is not None or error.errno in _LOCAL_ERRNOS
 
 
-def _interrupted(interrupt: KeyboardInterrupt, session: Session | None) -> Failure:
+def _interrupted(interrupt: KeyboardInterrupt, session: ConsoleSession | None) -> Failure:
     """Ctrl-C as the console says it: what was on the line, what was stopped; for a restore,
     which files are written, in doubt and not touched."""
     backup = sys.modules.get("robostar.client.backup")  # loaded if a restore was running
@@ -305,8 +305,8 @@ def cli(
       robostar --port tcp://127.0.0.1:9100 --json position --kind xy
       robostar --dry-run move 100 200 0 0          # show the frames, send nothing
     """
-    session = Session(Settings(port, timeout, json_mode, trace, channel, dry_run, robot))
-    if isinstance(ctx.obj, Session):
+    session = ConsoleSession(Settings(port, timeout, json_mode, trace, channel, dry_run, robot))
+    if isinstance(ctx.obj, ConsoleSession):
         # A line typed in `robostar shell`: it runs on the shell's open connection.
         session.share(ctx.obj)
     ctx.obj = session

@@ -6,7 +6,7 @@ import click
 from rich.text import Text
 
 from robostar.cli.options import ON_OFF, common_options, get_session
-from robostar.cli.session import Session, pass_session
+from robostar.cli.session import ConsoleSession, pass_session
 from robostar.commands.control import (
     EmergencyStop,
     ReadReferenceAxis,
@@ -21,7 +21,7 @@ from robostar.commands.job import Servo
 __all__ = ["done", "estop", "ref_axis", "reset", "restart", "servo", "speed"]
 
 
-def done(session: Session, message: str, **data: object) -> None:
+def done(session: ConsoleSession, message: str, **data: object) -> None:
     """Report an action that went through."""
     session.out.result({"ok": True, **data}, Text(message, style="green"))
 
@@ -30,7 +30,7 @@ def done(session: Session, message: str, **data: object) -> None:
 @click.argument("state", type=ON_OFF)
 @common_options(channel=True)
 @pass_session
-def servo(session: Session, state: str) -> None:
+def servo(session: ConsoleSession, state: str) -> None:
     """Turn a channel's servo on or off (DB); waits until the controller says it is done.
 
     \b
@@ -74,7 +74,7 @@ def speed(ctx: click.Context) -> None:
 @click.argument("value", type=click.IntRange(0, 1000))
 @common_options(channel=True)
 @pass_session
-def speed_set(session: Session, value: int) -> None:
+def speed_set(session: ConsoleSession, value: int) -> None:
     """Set a channel's speed, 0-1000 (1000 is 100 % of each axis's Mv).
 
     \b
@@ -93,7 +93,7 @@ def speed_set(session: Session, value: int) -> None:
 @click.command()
 @common_options()
 @pass_session
-def estop(session: Session) -> None:
+def estop(session: ConsoleSession) -> None:
     """Emergency stop (CF): stops every channel and raises the Host Emergency alarm.
 
     Clear it afterwards with `robostar reset`.
@@ -109,7 +109,7 @@ def estop(session: Session) -> None:
 @click.command()
 @common_options()
 @pass_session
-def reset(session: Session) -> None:
+def reset(session: ConsoleSession) -> None:
     """Reset the controller's alarms (CG).
 
     \b
@@ -123,7 +123,7 @@ def reset(session: Session) -> None:
 @click.command()
 @common_options()
 @pass_session
-def restart(session: Session) -> None:
+def restart(session: ConsoleSession) -> None:
     """Restart the controller (CJ), for an alarm reset cannot clear; the servo must be off.
 
     \b
@@ -138,7 +138,7 @@ def restart(session: Session) -> None:
 @click.argument("axis", type=click.Choice(["1", "4"]), required=False)
 @common_options(channel=True)
 @pass_session
-def ref_axis(session: Session, axis: str | None) -> None:
+def ref_axis(session: ConsoleSession, axis: str | None) -> None:
     """Show or set the reference axis of interpolated moves: 1 (X) or 4 (W).
 
     Setting it needs the servo off.

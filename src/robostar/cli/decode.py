@@ -13,7 +13,7 @@ from rich.text import Text
 from robostar.cli.annotate import Annotated, Chunk, Direction, annotate, short
 from robostar.cli.captures import CaptureFormat, parse_capture, parse_hexdump
 from robostar.cli.options import common_options
-from robostar.cli.session import Session, pass_session
+from robostar.cli.session import ConsoleSession, pass_session
 from robostar.errors import UsageError
 
 __all__ = ["decode"]
@@ -91,7 +91,7 @@ def _table(frames: Sequence[Annotated], show_bytes: bool) -> RenderableType:
 @common_options()
 @pass_session
 def decode(
-    session: Session, source: str | None, fmt: str, hex_text: str | None, show_bytes: bool
+    session: ConsoleSession, source: str | None, fmt: str, hex_text: str | None, show_bytes: bool
 ) -> None:
     """Annotate each frame of a capture: direction, command, fields, flag, LRC verdict.
 

@@ -27,7 +27,7 @@ from robostar.cli.reading import (
     status_table,
 )
 from robostar.cli.render import jsonable, lamps_table
-from robostar.cli.session import Session, pass_session
+from robostar.cli.session import ConsoleSession, pass_session
 from robostar.errors import ControllerError
 from robostar.types import Point, PositionKind
 
@@ -59,7 +59,7 @@ class _Tour:
 
     client: Any
     controller: Any
-    session: Session
+    session: ConsoleSession
     pause: float
     steps: list[dict[str, Any]] = field(default_factory=list)
 
@@ -281,7 +281,7 @@ def run_tour(tour: _Tour, jog_seconds: float) -> None:
 @click.option("--fast", is_flag=True, help="No pauses and a fast robot (for a quick check).")
 @common_options()
 @pass_session
-def demo(session: Session, speedup: float, pause: float, fast: bool) -> None:
+def demo(session: ConsoleSession, speedup: float, pause: float, fast: bool) -> None:
     """A guided tour on a built-in simulator: status, servo, home, move, jog, a job, I/O, alarms.
 
     It runs on a simulator of its own and never uses --port. It takes well under a minute.

@@ -14,7 +14,7 @@ from rich.text import Text
 import robostar
 from robostar.cli.failures import EXIT_LINE, explain
 from robostar.cli.options import common_options
-from robostar.cli.session import Session, pass_session
+from robostar.cli.session import ConsoleSession, pass_session
 from robostar.commands.status import ReadInfo, ReadStatus
 from robostar.errors import PortError, RobostarError
 
@@ -92,7 +92,7 @@ def _probe(port: str, timeout: float) -> tuple[Check, int | None]:
     return Check("baud rate", True, detail), result.baudrate
 
 
-def _round_trips(session: Session, count: int) -> Check:
+def _round_trips(session: ConsoleSession, count: int) -> Check:
     times = []
     for _ in range(count):
         start = time.perf_counter()
@@ -115,7 +115,7 @@ def _round_trips(session: Session, count: int) -> Check:
 )
 @common_options()
 @pass_session
-def doctor(session: Session, count: int) -> None:
+def doctor(session: ConsoleSession, count: int) -> None:
     """Check the port: it opens, the controller answers AA, which baud rate answers,
     the round-trip time, and the controller's name and version.
 

@@ -25,7 +25,7 @@ from rich.text import Text
 from robostar.cli.control import done
 from robostar.cli.options import common_options
 from robostar.cli.render import jsonable
-from robostar.cli.session import PlannedFrame, Session, pass_session
+from robostar.cli.session import ConsoleSession, PlannedFrame, pass_session
 from robostar.client.backup import RestoreDiff
 from robostar.client.files import parse_name
 from robostar.commands import Command
@@ -144,7 +144,7 @@ def _points(lines: list[str]) -> dict[int, Point]:
 
 
 @contextmanager
-def _progress(session: Session, label: str) -> Iterator[Callable[[int, int | None], None]]:
+def _progress(session: ConsoleSession, label: str) -> Iterator[Callable[[int, int | None], None]]:
     """A progress bar on stderr (none in JSON mode), fed by the client's progress callback."""
     if session.out.json:
         yield lambda done, total: None
@@ -181,7 +181,7 @@ def files() -> None:
 @click.argument("pattern", default="*")
 @common_options(channel=True)
 @pass_session
-def files_ls(session: Session, pattern: str) -> None:
+def files_ls(session: ConsoleSession, pattern: str) -> None:
     """List the channel's JOB and PNT files (FD): number, name, size, steps.
 
     PATTERN is a file name or a glob (*, ?, [...]), matched without regard to case; the
@@ -225,7 +225,7 @@ def files_ls(session: Session, pattern: str) -> None:
 @click.option("--force", is_flag=True, help="Overwrite DEST if it exists.")
 @common_options(channel=True)
 @pass_session
-def files_get(session: Session, name: str, dest: str | None, xy: bool, force: bool) -> None:
+def files_get(session: ConsoleSession, name: str, dest: str | None, xy: bool, force: bool) -> None:
     """Download file NAME (FA) to DEST (default: ./NAME; - for standard output).
 
     \b
@@ -291,7 +291,7 @@ def files_get(session: Session, name: str, dest: str | None, xy: bool, force: bo
 )
 @common_options(channel=True)
 @pass_session
-def files_put(session: Session, source: str, name: str | None, number: int | None) -> None:
+def files_put(session: ConsoleSession, source: str, name: str | None, number: int | None) -> None:
     """Upload SOURCE (FB) as a JOB or PNT file; the upload is verified by reading it back.
 
     \b
@@ -337,7 +337,7 @@ def files_put(session: Session, source: str, name: str | None, number: int | Non
 @click.argument("name")
 @common_options(channel=True)
 @pass_session
-def files_rm(session: Session, name: str) -> None:
+def files_rm(session: ConsoleSession, name: str) -> None:
     """Delete JOB file NAME (FE); the controller does not delete PNT files.
 
     \b
@@ -354,7 +354,7 @@ def files_rm(session: Session, name: str) -> None:
 @click.argument("new_name")
 @common_options(channel=True)
 @pass_session
-def files_cp(session: Session, name: str, new_name: str) -> None:
+def files_cp(session: ConsoleSession, name: str, new_name: str) -> None:
     """Copy file NAME to NEW_NAME on the same channel (FF).
 
     \b
@@ -371,7 +371,7 @@ def files_cp(session: Session, name: str, new_name: str) -> None:
 @click.argument("new_name")
 @common_options(channel=True)
 @pass_session
-def files_mv(session: Session, name: str, new_name: str) -> None:
+def files_mv(session: ConsoleSession, name: str, new_name: str) -> None:
     """Rename file NAME to NEW_NAME (FG).
 
     \b
@@ -419,7 +419,7 @@ def _manifest_view(title: str, manifest: Any, folder: str) -> RenderableType:
 )
 @common_options()
 @pass_session
-def backup(session: Session, folder: str, keep: int | None, replace: bool) -> None:
+def backup(session: ConsoleSession, folder: str, keep: int | None, replace: bool) -> None:
     """Save every JOB and PNT file of every channel to FOLDER, with a manifest (sha256).
 
     The backup is written to a temporary folder and swapped into place only when complete:
@@ -483,7 +483,7 @@ def backup(session: Session, folder: str, keep: int | None, replace: bool) -> No
 @common_options()
 @pass_session
 def restore(
-    session: Session,
+    session: ConsoleSession,
     folder: str,
     preview: bool,
     channels: tuple[int, ...],

@@ -9,7 +9,7 @@ from rich.text import Text
 from robostar.cli.control import done
 from robostar.cli.options import ON_OFF, common_options
 from robostar.cli.render import jsonable, lamps_table
-from robostar.cli.session import Session, pass_session
+from robostar.cli.session import ConsoleSession, pass_session
 from robostar.commands.io import ReadInputs, ReadIOBoards, ReadOutputs, SetOutput
 from robostar.types import IOState
 
@@ -27,7 +27,7 @@ def port_json(kind: str, state: IOState) -> dict[str, object]:
     }
 
 
-def _show(session: Session, kind: str, state: IOState) -> None:
+def _show(session: ConsoleSession, kind: str, state: IOState) -> None:
     on = ", ".join(map(str, state.on)) or "none"
     session.out.result(
         port_json(kind, state),
@@ -53,7 +53,7 @@ def io() -> None:
 @click.argument("port", type=PORT)
 @common_options()
 @pass_session
-def io_in(session: Session, port: int) -> None:
+def io_in(session: ConsoleSession, port: int) -> None:
     """Show the 16 input contacts of PORT (0-4) as lamps (GA).
 
     \b
@@ -67,7 +67,7 @@ def io_in(session: Session, port: int) -> None:
 @click.argument("port", type=PORT)
 @common_options()
 @pass_session
-def io_out(session: Session, port: int) -> None:
+def io_out(session: ConsoleSession, port: int) -> None:
     """Show the 16 output contacts of PORT (0-4) as lamps (GB).
 
     \b
@@ -83,7 +83,7 @@ def io_out(session: Session, port: int) -> None:
 @click.argument("state", type=ON_OFF)
 @common_options()
 @pass_session
-def io_set(session: Session, port: int, contact: int, state: str) -> None:
+def io_set(session: ConsoleSession, port: int, contact: int, state: str) -> None:
     """Switch output CONTACT (0-15) of PORT (0-4) on or off (GC).
 
     \b
@@ -105,7 +105,7 @@ def io_set(session: Session, port: int, contact: int, state: str) -> None:
 @io.command("boards")
 @common_options()
 @pass_session
-def io_boards(session: Session) -> None:
+def io_boards(session: ConsoleSession) -> None:
     """Show how many input and output boards the controller has (GD).
 
     \b

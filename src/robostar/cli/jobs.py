@@ -7,7 +7,7 @@ from rich.text import Text
 
 from robostar.cli.control import done
 from robostar.cli.options import ControllerFile, common_options, get_session
-from robostar.cli.session import Session, pass_session
+from robostar.cli.session import ConsoleSession, pass_session
 from robostar.commands.control import ResetJob, StartJob, StopJob
 from robostar.commands.job import ReadJobName, ReadJobStep, SelectJob, SetJobMode
 from robostar.commands.status import ReadStatus
@@ -48,7 +48,7 @@ def job(ctx: click.Context) -> None:
 @click.argument("name", type=ControllerFile("JOB"))
 @common_options(channel=True)
 @pass_session
-def select(session: Session, name: str) -> None:
+def select(session: ConsoleSession, name: str) -> None:
     """Select the JOB file NAME as the channel's job (DC); homing must be done.
 
     \b
@@ -64,7 +64,7 @@ def select(session: Session, name: str) -> None:
 @job.command()
 @common_options(channel=True)
 @pass_session
-def start(session: Session) -> None:
+def start(session: ConsoleSession) -> None:
     """Start the selected job (CC). The robot moves as the job says.
 
     \b
@@ -81,7 +81,7 @@ def start(session: Session) -> None:
 @job.command()
 @common_options(channel=True)
 @pass_session
-def stop(session: Session) -> None:
+def stop(session: ConsoleSession) -> None:
     """Stop the running job (CD).
 
     \b
@@ -100,7 +100,7 @@ def stop(session: Session) -> None:
 @job.command()
 @common_options(channel=True)
 @pass_session
-def reset(session: Session) -> None:
+def reset(session: ConsoleSession) -> None:
     """Set the job back to its first step (CE); the servo must be off.
 
     \b
@@ -120,7 +120,7 @@ def reset(session: Session) -> None:
 @click.argument("mode", type=click.Choice(["auto", "step"], case_sensitive=False))
 @common_options(channel=True)
 @pass_session
-def mode(session: Session, mode: str) -> None:
+def mode(session: ConsoleSession, mode: str) -> None:
     """Run the job in auto mode (all steps) or step mode (one step per start) (EA).
 
     The job must not be running.

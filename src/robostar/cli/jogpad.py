@@ -28,7 +28,7 @@ from robostar.cli.keys import KeyReader, TerminalLost
 from robostar.cli.options import ControllerFile, Finite, common_options
 from robostar.cli.reading import position_json, position_view
 from robostar.cli.render import format_number, status_lamps
-from robostar.cli.session import Session, pass_session
+from robostar.cli.session import ConsoleSession, pass_session
 from robostar.cli.teach import (
     GOTO_SPEED,
     Target,
@@ -360,7 +360,12 @@ class _PadRunner:
     """Drives the pad: keys from the terminal, actions on the client, the screen refreshed."""
 
     def __init__(
-        self, session: Session, pad: JogPad, view: _View, poll: float, teach: str | None = None
+        self,
+        session: ConsoleSession,
+        pad: JogPad,
+        view: _View,
+        poll: float,
+        teach: str | None = None,
     ):
         self.session = session
         self.client = session.client
@@ -693,7 +698,7 @@ def flush_input(reader: KeyReader) -> None:
 @common_options(channel=True)
 @pass_session
 def jog(
-    session: Session,
+    session: ConsoleSession,
     axis: int,
     direction: str | None,
     seconds: float | None,
@@ -764,7 +769,7 @@ def jog(
 
 
 def _timed(
-    session: Session,
+    session: ConsoleSession,
     axis: int,
     direction: JogDirection,
     seconds: float,

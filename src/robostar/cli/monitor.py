@@ -25,7 +25,7 @@ from rich.text import Text
 from robostar.cli.keys import KeyReader, TerminalLost
 from robostar.cli.options import Finite, common_options
 from robostar.cli.render import STATUS_BITS, jsonable, lamps_table
-from robostar.cli.session import Session, pass_session
+from robostar.cli.session import ConsoleSession, pass_session
 from robostar.commands.control import ReadSpeed
 from robostar.commands.io import ReadInputs, ReadOutputs
 from robostar.commands.job import ReadJobName, ReadJobStep
@@ -282,7 +282,7 @@ def _parse_list(text: str, lo: int, hi: int, what: str) -> list[int]:
 @common_options()
 @pass_session
 def monitor(
-    session: Session, rate: float, count: int | None, channels: str, ports: str, kind: str
+    session: ConsoleSession, rate: float, count: int | None, channels: str, ports: str, kind: str
 ) -> None:
     """Watch every channel live: status lamps, positions, speed, job and step, alarms, I/O.
 
@@ -329,10 +329,10 @@ def monitor(
                 return
 
 
-def _client_options(session: Session) -> None:
+def _client_options(session: ConsoleSession) -> None:
     """A short reply timeout (unless --timeout is given) and reconnecting, for a client the
     monitor opens. In `robostar shell` the client is the shell's, open before this line ran,
-    and Session refuses options then (RuntimeError, its only one): `watch` keeps the shell's
+    and ConsoleSession refuses options then (RuntimeError, its only one): `watch` keeps the shell's
     timeout and connection rather than ending the shell."""
     options: dict[str, Any] = {"reconnect": True}
     if session.settings.timeout is None:
@@ -342,7 +342,7 @@ def _client_options(session: Session) -> None:
 
 
 def _print_samples(
-    session: Session,
+    session: ConsoleSession,
     sampler: Sampler,
     period: float,
     count: int | None,

@@ -11,7 +11,7 @@ from rich.text import Text
 
 from robostar.cli.options import ControllerFile, Finite, common_options
 from robostar.cli.reading import position_json, position_view
-from robostar.cli.session import Session, pass_session
+from robostar.cli.session import ConsoleSession, pass_session
 from robostar.commands.control import StopHoming
 from robostar.commands.motion import Home, Move, MoveBy, MoveToPoint
 from robostar.commands.status import ReadPosition
@@ -72,7 +72,9 @@ def _wait_options(func: F) -> F:
     )(func)
 
 
-def finish_motion(session: Session, wait: bool, timeout: float, summary: dict[str, Any]) -> None:
+def finish_motion(
+    session: ConsoleSession, wait: bool, timeout: float, summary: dict[str, Any]
+) -> None:
     """Wait for the channel to stop (when asked) and report the position it reached."""
     channel = session.channel
     if not wait:
@@ -93,7 +95,7 @@ def finish_motion(session: Session, wait: bool, timeout: float, summary: dict[st
 @_wait_options
 @common_options(channel=True)
 @pass_session
-def home(session: Session, stop: bool, wait: bool, wait_timeout: float) -> None:
+def home(session: ConsoleSession, stop: bool, wait: bool, wait_timeout: float) -> None:
     """Return a channel's robot to its origin (BA), and wait until the origin is set.
 
     \b
@@ -131,7 +133,7 @@ def home(session: Session, stop: bool, wait: bool, wait_timeout: float) -> None:
 @common_options(channel=True)
 @pass_session
 def move(
-    session: Session,
+    session: ConsoleSession,
     coordinates: tuple[str, ...],
     relative: bool,
     xy: bool,
@@ -212,7 +214,7 @@ def move(
 @common_options(channel=True)
 @pass_session
 def move_point(
-    session: Session,
+    session: ConsoleSession,
     file: str,
     point: int,
     via_point: int | None,

@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING, Any, TypeVar
 
 import click
 
-from robostar.cli.session import Session
+from robostar.cli.session import ConsoleSession
 
 __all__ = ["MAX_SECONDS", "ON_OFF", "ControllerFile", "Finite", "common_options", "get_session"]
 
@@ -65,9 +65,9 @@ class ControllerFile(_TextParam):
             self.fail(str(error), param, ctx)
 
 
-def get_session(ctx: click.Context) -> Session:
+def get_session(ctx: click.Context) -> ConsoleSession:
     """The run's session (``ctx.obj`` of the root group)."""
-    session = ctx.find_object(Session)
+    session = ctx.find_object(ConsoleSession)
     if session is None:
         raise click.UsageError("this command runs only under the robostar group")
     return session

@@ -11,7 +11,7 @@ from rich.text import Text
 
 from robostar.cli.options import common_options
 from robostar.cli.profiles import Profile, config_path, load_profiles
-from robostar.cli.session import Session, is_simulator, pass_session
+from robostar.cli.session import ConsoleSession, is_simulator, pass_session
 
 __all__ = ["profiles"]
 
@@ -19,7 +19,7 @@ __all__ = ["profiles"]
 @click.command()
 @common_options()
 @pass_session
-def profiles(session: Session) -> None:
+def profiles(session: ConsoleSession) -> None:
     """List the named controllers (profiles) usable with --robot NAME.
 
     The file is robots.toml in your config folder (or the file named by ROBOSTAR_CONFIG); each

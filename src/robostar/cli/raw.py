@@ -15,7 +15,7 @@ from rich.text import Text
 from robostar.cli.annotate import FLAG_NAMES, describe_request, printable, short
 from robostar.cli.options import common_options
 from robostar.cli.render import jsonable
-from robostar.cli.session import Session, pass_session
+from robostar.cli.session import ConsoleSession, pass_session
 from robostar.commands import COMMANDS, Command, decode_request, split_answer
 from robostar.commands.base import Shape
 from robostar.errors import RobostarError, UsageError
@@ -154,7 +154,7 @@ def _answer_view(command: RawCommand, answer: RawAnswer) -> RenderableType:
 )
 @common_options()
 @pass_session
-def raw(session: Session, code: str, params: tuple[str, ...], shape: str | None) -> None:
+def raw(session: ConsoleSession, code: str, params: tuple[str, ...], shape: str | None) -> None:
     """Send command CODE with PARAMS as given and show the answer, decoded when known.
 
     Each parameter is ASCII text, or hex bytes after 0x; they are joined with nothing between.

@@ -11,7 +11,7 @@ from rich.text import Text
 
 from robostar.cli.options import common_options
 from robostar.cli.render import STATUS_BITS, format_number, jsonable, lamp
-from robostar.cli.session import Session, pass_session
+from robostar.cli.session import ConsoleSession, pass_session
 from robostar.commands.files import ReadAlarmHistory
 from robostar.commands.status import ReadAlarms, ReadInfo, ReadPosition, ReadStatus
 from robostar.commands.system import ReadLastError, ReadParameters
@@ -124,7 +124,7 @@ def position_json(channel: int, pos: Position) -> dict[str, object]:
 @click.command()
 @common_options()
 @pass_session
-def status(session: Session) -> None:
+def status(session: ConsoleSession) -> None:
     """Show the status lamps of every channel: servo, origin, alarm, ready, in position, running.
 
     \b
@@ -139,7 +139,7 @@ def status(session: Session) -> None:
 @click.command()
 @common_options()
 @pass_session
-def info(session: Session) -> None:
+def info(session: ConsoleSession) -> None:
     """Show the controller's name and version, and each channel's model, type and axes.
 
     \b
@@ -154,7 +154,7 @@ def info(session: Session) -> None:
 @click.option("--history", is_flag=True, help="Show the stored alarm history (FH) instead.")
 @common_options()
 @pass_session
-def alarms(session: Session, history: bool) -> None:
+def alarms(session: ConsoleSession, history: bool) -> None:
     """Show the current alarms (up to 10), or with --history the stored alarm history.
 
     Clear current alarms with `robostar reset`.
@@ -182,7 +182,7 @@ def alarms(session: Session, history: bool) -> None:
 )
 @common_options(channel=True)
 @pass_session
-def position(session: Session, kind: str) -> None:
+def position(session: ConsoleSession, kind: str) -> None:
     """Show a channel's position in pulses, joint angles or XY, with the arm form.
 
     \b
@@ -207,7 +207,7 @@ def position(session: Session, kind: str) -> None:
 @click.option("--public", is_flag=True, help="The public parameters instead of a channel's.")
 @common_options(channel=True)
 @pass_session
-def params(session: Session, index: int, public: bool) -> None:
+def params(session: ConsoleSession, index: int, public: bool) -> None:
     """Show a channel's parameter data (KE), or the public parameters with --public.
 
     \b
@@ -233,7 +233,7 @@ def params(session: Session, index: int, public: bool) -> None:
 @click.command("last-error")
 @common_options()
 @pass_session
-def last_error(session: Session) -> None:
+def last_error(session: ConsoleSession) -> None:
     """Show the controller's reason for the last refused command (KD).
 
     \b

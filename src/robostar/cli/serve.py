@@ -140,7 +140,7 @@ def _describe(config: ServeConfig) -> list[str]:
 
 
 async def _run(config: ServeConfig) -> None:
-    from robostar.serve.server import LineServer
+    from robostar.serve.line_server import LineServer
 
     stop = asyncio.Event()
     loop = asyncio.get_running_loop()

@@ -25,7 +25,7 @@ if TYPE_CHECKING:
     from robostar.client.trace import TraceRecord
     from robostar.types import Alarm
 
-__all__ = ["DryRunDone", "PlannedFrame", "Session", "Settings", "pass_session"]
+__all__ = ["ConsoleSession", "DryRunDone", "PlannedFrame", "Settings", "pass_session"]
 
 T = TypeVar("T")
 
@@ -81,7 +81,7 @@ def is_simulator(port: str) -> bool:
     return port.strip().lower().startswith("sim:")
 
 
-class Session:
+class ConsoleSession:
     """Shared by every command of one run; ``ctx.obj`` of the root group."""
 
     def __init__(self, settings: Settings):
@@ -99,7 +99,7 @@ class Session:
         self.alarms_left: tuple[Alarm, ...] = ()
         self._shared = False
         self._served_simulator = False
-        self._child: Session | None = None
+        self._child: ConsoleSession | None = None
         self._motion: tuple[str, int] | None = None
         self._stop_sent: str | None = None
         """The stop (BG, CI, CD, CF) this run sent after the motion it started, if any."""
@@ -269,7 +269,7 @@ class Session:
         with contextlib.suppress(RobostarError):
             self.alarms_left = self._client.execute(ReadAlarms())
 
-    def share(self, parent: Session) -> None:
+    def share(self, parent: ConsoleSession) -> None:
         """Run on ``parent``'s connection (the shell's): same target, same open client, which
         this session never closes; frames it sends are counted here too."""
         if self.settings.trace:
@@ -503,4 +503,4 @@ def _plan_table(planned: Sequence[PlannedFrame], note: str, port: str) -> Render
     return Group(*parts)
 
 
-pass_session = click.make_pass_decorator(Session)
+pass_session = click.make_pass_decorator(ConsoleSession)

@@ -23,7 +23,7 @@ import click
 
 from robostar.cli.failures import EXIT_BAD_ARGUMENT
 from robostar.cli.options import common_options
-from robostar.cli.session import Session, pass_session
+from robostar.cli.session import ConsoleSession, pass_session
 from robostar.errors import RobostarError
 
 if TYPE_CHECKING:
@@ -67,7 +67,7 @@ _NOT_IN_SHELL = {
 """Commands the shell refuses (and does not complete), with the reason."""
 
 
-def _serial_doctor(parent: Session, words: list[str]) -> str | None:
+def _serial_doctor(parent: ConsoleSession, words: list[str]) -> str | None:
     """`doctor` on a serial line probes the port's baud rates with a connection of its own,
     which the shell's open connection keeps busy: it would blame "another program", the shell
     itself. Say so instead (on any other line doctor runs on the shell's connection)."""
@@ -88,7 +88,7 @@ def _serial_doctor(parent: Session, words: list[str]) -> str | None:
     )
 
 
-def run_line(parent: Session, words: list[str]) -> int:
+def run_line(parent: ConsoleSession, words: list[str]) -> int:
     """Run one command line on the shell's connection; its exit code."""
     from robostar.cli.app import cli
 
@@ -114,7 +114,7 @@ def run_line(parent: Session, words: list[str]) -> int:
 class ShellState:
     """What the prompt shows and completes, read from the controller and cached."""
 
-    def __init__(self, session: Session):
+    def __init__(self, session: ConsoleSession):
         self.session = session
         self._status_at = 0.0
         self._status = ""
@@ -260,7 +260,7 @@ def _terminal_lines(state: ShellState) -> Iterator[str]:
             return
 
 
-def _prompt_text(session: Session) -> str:
+def _prompt_text(session: ConsoleSession) -> str:
     where = "SIMULATOR" if session.simulator else session.port
     return f"robostar [{where}] ch{session.channel}> "
 
@@ -273,7 +273,7 @@ def _piped_lines(stream: Any) -> Iterator[str]:
 @click.command()
 @common_options(channel=True)
 @pass_session
-def shell(session: Session) -> None:
+def shell(session: ConsoleSession) -> None:
     """An interactive console on one open connection: type commands without `robostar`.
 
     Tab completes commands, channels, file names and point numbers; ↑ recalls history; the

@@ -12,7 +12,7 @@ import click
 from rich.text import Text
 
 from robostar.cli.options import Finite, common_options
-from robostar.cli.session import Session, pass_session
+from robostar.cli.session import ConsoleSession, pass_session
 from robostar.errors import UsageError
 
 __all__ = ["sim", "sim_input"]
@@ -105,7 +105,7 @@ __all__ = ["sim", "sim_input"]
 @common_options()
 @pass_session
 def sim(
-    session: Session,
+    session: ConsoleSession,
     listen: str,
     pty: bool,
     count: int,
@@ -139,7 +139,7 @@ def sim(
     if click.get_current_context().invoked_subcommand is not None:
         return
     from robostar.sim import SimConfig
-    from robostar.sim.server import serve
+    from robostar.sim.listeners import serve
 
     if config_file and query:
         raise UsageError("give --config or --options, not both")
@@ -175,7 +175,7 @@ def sim(
     )
 
 
-def ready_printer(session: Session) -> Callable[[list[str]], None]:
+def ready_printer(session: ConsoleSession) -> Callable[[list[str]], None]:
     """Prints the endpoints once they serve (one JSON line with --json)."""
 
     def ready(endpoints: list[str]) -> None:
@@ -211,7 +211,7 @@ def ready_printer(session: Session) -> Callable[[list[str]], None]:
 @common_options()
 @pass_session
 def sim_input(
-    session: Session, port: int, contact: int, state: str, control: str, controller: int
+    session: ConsoleSession, port: int, contact: int, state: str, control: str, controller: int
 ) -> None:
     """Set an input contact of a running simulator (a sensor, a push button).
 
@@ -222,7 +222,7 @@ def sim_input(
       robostar --port tcp://127.0.0.1:9100 io in 0
     """
     from robostar.sim.control import send_control
-    from robostar.sim.server import parse_listen
+    from robostar.sim.listeners import parse_listen
 
     line = f"input {port} {contact} {state.lower()} {controller}"
     try:
@@ -273,7 +273,7 @@ def sim_alarm() -> None:
 @common_options()
 @pass_session
 def sim_alarm_raise(
-    session: Session, code: int, alarm_channel: str, control: str, controller: int
+    session: ConsoleSession, code: int, alarm_channel: str, control: str, controller: int
 ) -> None:
     """Raise alarm CODE in a running simulator, as a fault on the robot would.
 
@@ -282,7 +282,7 @@ def sim_alarm_raise(
       robostar sim alarm raise 1153 --channel 1
     """
     from robostar.sim.control import send_control
-    from robostar.sim.server import parse_listen
+    from robostar.sim.listeners import parse_listen
 
     line = f"alarm {code} {alarm_channel} {controller}"
     try:
@@ -303,7 +303,7 @@ def sim_alarm_raise(
 @sim_alarm.command("clear")
 @common_options()
 @pass_session
-def sim_alarm_clear(session: Session) -> None:
+def sim_alarm_clear(session: ConsoleSession) -> None:
     """Clear a simulator's alarms (CG over --port, which must be a simulator).
 
     \b

@@ -18,7 +18,7 @@ from rich.text import Text
 
 from robostar.cli.options import ControllerFile, common_options
 from robostar.cli.render import format_number, jsonable
-from robostar.cli.session import Session, pass_session
+from robostar.cli.session import ConsoleSession, pass_session
 from robostar.errors import UsageError
 from robostar.types import ArmForm, Point, PositionKind, RobotType
 
@@ -126,7 +126,7 @@ def teach() -> None:
 @click.option("--yes", "-y", is_flag=True, help="Do not ask for confirmation.")
 @common_options(channel=True)
 @pass_session
-def store(session: Session, where: tuple[str, ...], global_: bool, yes: bool) -> None:
+def store(session: ConsoleSession, where: tuple[str, ...], global_: bool, yes: bool) -> None:
     """Store the current position into point NUMBER of FILE.PNT (or global point NUMBER).
 
     Shows the old and the new value and asks first (--yes skips the question).
@@ -179,7 +179,7 @@ def store(session: Session, where: tuple[str, ...], global_: bool, yes: bool) ->
 @common_options(channel=True)
 @pass_session
 def goto_command(
-    session: Session, where: tuple[str, ...], global_: bool, speed: int, yes: bool
+    session: ConsoleSession, where: tuple[str, ...], global_: bool, speed: int, yes: bool
 ) -> None:
     """Move slowly (joint motion) to point NUMBER of FILE.PNT, or to global point NUMBER.
 

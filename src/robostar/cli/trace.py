@@ -16,7 +16,7 @@ from rich.text import Text
 from robostar.cli.annotate import Annotated, Direction, annotate
 from robostar.cli.captures import CaptureFormat, parse_capture
 from robostar.cli.options import common_options
-from robostar.cli.session import Session, pass_session
+from robostar.cli.session import ConsoleSession, pass_session
 from robostar.errors import UsageError
 from robostar.protocol.frame import FrameDecoder, Packet
 from robostar.protocol.link import announced_wait
@@ -95,7 +95,7 @@ def trace() -> None:
 @click.argument("source", type=click.Path(dir_okay=False))
 @common_options()
 @pass_session
-def check(session: Session, source: str) -> None:
+def check(session: ConsoleSession, source: str) -> None:
     """Flag every frame of a trace that robostar's reading would refuse (exit 1 if any).
 
     Each is named with the rule it breaks and its bytes: attach the output, and the trace, to

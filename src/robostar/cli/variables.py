@@ -9,7 +9,7 @@ from robostar.cli.control import done
 from robostar.cli.motion import parse_point
 from robostar.cli.options import common_options
 from robostar.cli.render import format_number, jsonable
-from robostar.cli.session import Session, pass_session
+from robostar.cli.session import ConsoleSession, pass_session
 from robostar.commands.variables import (
     ReadGlobalFloat,
     ReadGlobalInt,
@@ -51,7 +51,7 @@ def global_() -> None:
 @click.option("--axis", type=click.IntRange(0, 6), default=0, help="One axis of a point (0=all).")
 @common_options(channel=True)
 @pass_session
-def global_get(session: Session, kind: str, index: int, xy: bool, axis: int) -> None:
+def global_get(session: ConsoleSession, kind: str, index: int, xy: bool, axis: int) -> None:
     """Read global KIND (int, float or point) number INDEX.
 
     \b
@@ -106,7 +106,7 @@ def global_get(session: Session, kind: str, index: int, xy: bool, axis: int) -> 
 @common_options(channel=True)
 @pass_session
 def global_set(
-    session: Session,
+    session: ConsoleSession,
     kind: str,
     index: int,
     value: tuple[str, ...],

@@ -63,9 +63,12 @@ __all__ = ["AsyncOperations"]
 class AsyncOperations(AsyncRunner):
     """Every operation of the surface as a coroutine method."""
 
-    async def execute(self, command: Command[R]) -> R:
-        """Run any command object (see :mod:`robostar.commands`) and return its result."""
-        return await self._run(Operations.execute(cast(Operations, self), command))
+    async def execute(self, command: Command[R], progress: Progress | None = None) -> R:
+        """Run any command object (see :mod:`robostar.commands`) and return its result.
+
+        ``progress(count, total)`` is called as a multi-packet exchange goes (packets read, or
+        lines accepted by an upload; ``total`` when known), e.g. to say how far a transfer got."""
+        return await self._run(Operations.execute(cast(Operations, self), command, progress))
 
     async def status(self) -> AllStatus:
         """AA: the status of channels 1-3 (servo, origin, alarm, ready, in position, running)."""

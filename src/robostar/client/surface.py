@@ -146,11 +146,14 @@ class Operations(PlanHelpers):
 
     # -- any command -----------------------------------------------------------------------
     @operation
-    def execute(self, command: Command[R]) -> Plan[R]:
-        """Run any command object (see :mod:`robostar.commands`) and return its result."""
+    def execute(self, command: Command[R], progress: Progress | None = None) -> Plan[R]:
+        """Run any command object (see :mod:`robostar.commands`) and return its result.
+
+        ``progress(count, total)`` is called as a multi-packet exchange goes (packets read, or
+        lines accepted by an upload; ``total`` when known), e.g. to say how far a transfer got."""
         if not isinstance(command, Command):
             raise UsageError(f"command: must be a robostar Command, not {command!r}")
-        return (yield from call(command))
+        return (yield from call(command, progress))
 
     # -- status (A) ------------------------------------------------------------------------
     @operation

@@ -4,8 +4,8 @@ from robostar.serve.audit import AuditError
 from robostar.serve.config import ConfigError, LineConfig, ServeConfig, load_config
 from robostar.serve.lease import Lease, LeaseHeldError, LeaseInfo, Who
 from robostar.serve.line import AbortedByStopError, Line, LineBusyError, LineDownError, LineHealth
+from robostar.serve.line_server import LineServer
 from robostar.serve.model import Change, ControllerModel, Quality, Sample, Subscription
-from robostar.serve.server import LineServer
 
 __all__ = [
     "AbortedByStopError",

@@ -455,11 +455,10 @@ class Line:
         def progress(count: int, total: int | None) -> None:
             done[0] = (count, total)
 
-        # a transfer reports its progress, so that a stop's victim learns how far it got
+        # a transfer reports its progress, so that a stop's victim learns how far it got (only a
+        # transfer: a progress hook takes the client off its one-read fast path)
         task = asyncio.create_task(
-            client._call(job.command, progress)
-            if isinstance(job.command, _TRANSFERS)
-            else client.execute(job.command)
+            client.execute(job.command, progress if isinstance(job.command, _TRANSFERS) else None)
         )
         self._current_task = task
         try:

@@ -1,6 +1,6 @@
 """``python -m robostar.sim``: run the virtual controller on TCP and/or a pseudo-terminal.
 
-A minimal launcher over :func:`robostar.sim.server.serve`; the ``robostar sim`` command of the
+A minimal launcher over :func:`robostar.sim.listeners.serve`; the ``robostar sim`` command of the
 command line offers the same. Each endpoint is printed on its own line once it is ready.
 """
 
@@ -11,7 +11,7 @@ import sys
 from collections.abc import Sequence
 
 from robostar.errors import RobostarError
-from robostar.sim.server import DEFAULT_LISTEN, serve
+from robostar.sim.listeners import DEFAULT_LISTEN, serve
 
 
 def _parser() -> argparse.ArgumentParser:

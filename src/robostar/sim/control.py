@@ -24,8 +24,8 @@ from collections.abc import Sequence
 from typing import Any
 
 from robostar.errors import UsageError
-from robostar.serving.threaded import PeerHost
 from robostar.sim.alarms import ALL_CHANNELS, AlarmCode
+from robostar.sim.host import PeerHost
 
 __all__ = ["MAX_CONNECTIONS", "MAX_LINE", "ControlServer", "send_control"]
 

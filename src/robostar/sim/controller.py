@@ -1,12 +1,12 @@
 """The virtual controller: the simulator's N1 serving backend, and a byte peer for one line.
 
-:class:`VirtualController` is a :class:`~robostar.serving.Backend`: each
-:class:`~robostar.serving.Session` (one per connection, :meth:`open_session`) decodes requests
-with the command catalogue and hands them here; the handlers act on the shared
-:class:`~robostar.sim.model.Model` and the answer goes back to the session that asked. Used
-directly as a :class:`~robostar.transport.peer.BytePeer` it serves one line (its own default
-session). It owns no thread and no clock: the driver passes real monotonic time into every call;
-model time runs ``speedup`` times faster. Link timeouts and the jog watchdog stay in real seconds.
+:class:`VirtualController` is a :class:`~robostar.controller_role.Backend`: each
+:class:`~robostar.controller_role.ControllerSession` (one per connection, :meth:`open_session`)
+decodes requests with the command catalogue and hands them here; the handlers act on the shared
+:class:`~robostar.sim.model.Model` and the answer goes back to the session that asked. Used directly
+as a :class:`~robostar.transport.peer.BytePeer` it serves one line (its own default session). It
+owns no thread and no clock: the driver passes real monotonic time into every call; model time runs
+``speedup`` times faster. Link timeouts and the jog watchdog stay in real seconds.
 """
 
 from __future__ import annotations
@@ -19,8 +19,8 @@ from typing import Any, Protocol
 from robostar.commands.base import Command
 from robostar.commands.files import UploadFile
 from robostar.commands.motion import JogContinue, JogStart
+from robostar.controller_role import Backend, ControllerSession, Refusal, Request, UploadLimits
 from robostar.errors import FieldError
-from robostar.serving import Backend, Refusal, Request, Session, UploadLimits
 from robostar.sim.config import SimConfig
 from robostar.sim.dialects import dialect_named
 from robostar.sim.handlers import Deferred, Reply, Upload, handle
@@ -74,7 +74,7 @@ class VirtualController(Backend):
         self._last_now: float | None = None
         self._jog_deadlines: dict[int, float] = {}
         self._seconds: list[_SecondPhase] = []
-        self._sessions: list[Session] = []
+        self._sessions: list[ControllerSession] = []
         self._closed_requests = 0
         if store is not None:
             snapshot = store.load()
@@ -95,21 +95,23 @@ class VirtualController(Backend):
         return self._closed_requests + sum(s.requests for s in self._sessions)
 
     # -- sessions --------------------------------------------------------------------------------
-    def open_session(self, name: str = "n1") -> Session:
+    def open_session(self, name: str = "n1") -> ControllerSession:
         """A new N1 session (one connection) on this controller."""
-        session = Session(self, timeout=self.config.ack_timeout, limits=self.limits, name=name)
+        session = ControllerSession(
+            self, timeout=self.config.ack_timeout, limits=self.limits, name=name
+        )
         self._sessions.append(session)
         return session
 
     paced = False
-    """Sessions on the controller itself keep no line timing (see SimLines for that)."""
+    """Sessions on the controller itself keep no line timing (see SimSessions for that)."""
 
     def close_session(self, peer: Any) -> None:
         """The connection of a session from :meth:`open_session` is gone."""
-        if isinstance(peer, Session):
+        if isinstance(peer, ControllerSession):
             peer.close()
 
-    def session_closed(self, session: Session) -> None:
+    def session_closed(self, session: ControllerSession) -> None:
         if session in self._sessions:
             self._sessions.remove(session)
             self._closed_requests += session.requests
@@ -130,18 +132,18 @@ class VirtualController(Backend):
         return min(times, default=None)
 
     # -- BytePeer (the default session) ----------------------------------------------------------
-    def receive_data(self, data: bytes, now: float) -> None:
+    def feed(self, data: bytes, now: float) -> None:
         """Bytes the host wrote."""
         self.poll(now)
-        self.session.receive_data(data, now)
+        self.session.feed(data, now)
         self._settle()
 
-    def data_to_send(self, now: float) -> bytes:
+    def output(self, now: float) -> bytes:
         """Advance to ``now`` and return the bytes for the host."""
         self.poll(now)
-        out = self.session.data_to_send(now)
+        out = self.session.output(now)
         self._settle()
-        return out + self.session.data_to_send(now)
+        return out + self.session.output(now)
 
     def next_deadline(self) -> float | None:
         times = [t for t in (self.shared_deadline(), self.session.next_deadline()) if t is not None]
@@ -194,10 +196,10 @@ class VirtualController(Backend):
     def dress_answer(self, command: Command[Any], packets: list[bytes]) -> list[bytes]:
         return self.dialect.dress(command, packets)
 
-    def note_error(self, session: Session, text: str) -> None:
+    def note_error(self, session: ControllerSession, text: str) -> None:
         self.model.last_error = text
 
-    def begin_upload(self, session: Session, command: UploadFile) -> None:
+    def begin_upload(self, session: ControllerSession, command: UploadFile) -> None:
         self._outcome(command)
 
     def handle(self, request: Request) -> None:

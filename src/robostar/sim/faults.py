@@ -524,15 +524,15 @@ class FaultInjector:
             return True
 
     # -- BytePeer ------------------------------------------------------------------------------
-    def receive_data(self, data: bytes, now: float) -> None:
+    def feed(self, data: bytes, now: float) -> None:
         with self._lock:
             self._process(self._lanes[Direction.TO_CONTROLLER], data, now)
             self._feed_peer(now)
 
-    def data_to_send(self, now: float) -> bytes:
+    def output(self, now: float) -> bytes:
         with self._lock:
             self._feed_peer(now)
-            self._process(self._lanes[Direction.TO_HOST], self.peer.data_to_send(now), now)
+            self._process(self._lanes[Direction.TO_HOST], self.peer.output(now), now)
             return self._lanes[Direction.TO_HOST].due(now)
 
     def next_deadline(self) -> float | None:
@@ -551,7 +551,7 @@ class FaultInjector:
     def _feed_peer(self, now: float) -> None:
         data = self._lanes[Direction.TO_CONTROLLER].due(now)
         if data:
-            self.peer.receive_data(data, now)
+            self.peer.feed(data, now)
 
     def _exchange_started(self, index: int) -> None:
         """The host began a packet: scheduled faults waiting for an exchange start counting."""

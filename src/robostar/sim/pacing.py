@@ -76,7 +76,7 @@ class PacedPeer:
         self._clock = -math.inf  # the latest time the wrapped peer was given
 
     # -- BytePeer ------------------------------------------------------------------------------
-    def receive_data(self, data: bytes, now: float) -> None:
+    def feed(self, data: bytes, now: float) -> None:
         self._advance(now)
         if data:
             start = max(now, self._rx_free)
@@ -84,7 +84,7 @@ class PacedPeer:
             self._rx.append(burst)
             self._rx_free = burst.end(self.byte_time)
 
-    def data_to_send(self, now: float) -> bytes:
+    def output(self, now: float) -> bytes:
         self._advance(now)
         self._collect(now)
         out = bytearray()
@@ -125,7 +125,7 @@ class PacedPeer:
                 if burst.done == len(burst.data):
                     self._rx.popleft()
                 t = self._tick(arrival)
-                self.peer.receive_data(byte, t)
+                self.peer.feed(byte, t)
                 self._collect(t)
             elif deadline is not None and deadline <= now:
                 self._collect(self._tick(deadline))
@@ -148,7 +148,7 @@ class PacedPeer:
     def _collect(self, t: float) -> None:
         """Take what the peer has to say at ``t`` and put it on the wire."""
         t = self._tick(t)
-        data = self.peer.data_to_send(t)
+        data = self.peer.output(t)
         if data:
             start = max(t + self.turnaround, self._tx_free)
             burst = _Burst(start, data)

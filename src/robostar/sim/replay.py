@@ -145,7 +145,7 @@ class ReplayController:
         self._lock = threading.Lock()
 
     # -- BytePeer ------------------------------------------------------------------------------
-    def receive_data(self, data: bytes, now: float) -> None:
+    def feed(self, data: bytes, now: float) -> None:
         with self._lock:
             for event in self._decoder.feed(data):
                 if isinstance(event, Packet):
@@ -155,7 +155,7 @@ class ReplayController:
                 elif isinstance(event, CorruptPacket):
                     self._host_sent(event.raw, packet=True)
 
-    def data_to_send(self, now: float) -> bytes:
+    def output(self, now: float) -> bytes:
         with self._lock:
             out = bytes(self._out)
             self._out.clear()
@@ -218,8 +218,8 @@ def serve_replay(
 ) -> ReplayController:
     """Serve a recording on TCP until Ctrl-C (or ``stop``); says on stderr where the live host
     diverged. One recording is one line: connections share it, as they would share a port."""
-    from robostar.serving.address import parse_listen
-    from robostar.serving.threaded import PeerHost
+    from robostar.listen import parse_listen
+    from robostar.sim.host import PeerHost
 
     replay = ReplayController(path)
     if listen is None:

@@ -19,10 +19,10 @@ from robostar.transport.serial_port import SerialSettings, port_error
 from robostar.transport.tcp import tcp_open_error
 from robostar.transport.url import DEFAULT_BAUDRATE, DEFAULT_TCP_PORT
 
-__all__ = ["AsyncSerialTransport", "AsyncTcpTransport", "LineProtocol", "ThreadedAsyncTransport"]
+__all__ = ["AsyncSerialTransport", "AsyncTcpTransport", "ReaderProtocol", "ThreadedAsyncTransport"]
 
 
-class LineProtocol(asyncio.Protocol):
+class ReaderProtocol(asyncio.Protocol):
     """Collects what the line delivers and wakes the one reader waiting for it.
 
     An asyncio.Protocol rather than streams: a read of bytes already here is a buffer swap, and
@@ -125,7 +125,7 @@ class LineProtocol(asyncio.Protocol):
 
 
 class _ProtocolTransport(AsyncTransport):
-    """A line driven through :class:`LineProtocol`; subclasses say how to connect."""
+    """A line driven through :class:`ReaderProtocol`; subclasses say how to connect."""
 
     _own_write = True
     _own_read = True
@@ -139,14 +139,14 @@ class _ProtocolTransport(AsyncTransport):
 
     def __init__(self) -> None:
         self._transport: asyncio.BaseTransport | None = None
-        self._protocol: LineProtocol | None = None
+        self._protocol: ReaderProtocol | None = None
 
     @property
     def is_open(self) -> bool:
         return self._transport is not None
 
     @abstractmethod
-    async def _connect(self) -> tuple[asyncio.BaseTransport, LineProtocol]:
+    async def _connect(self) -> tuple[asyncio.BaseTransport, ReaderProtocol]:
         """Open the line and return its transport and protocol, or raise PortError."""
 
     async def open(self) -> None:
@@ -199,7 +199,7 @@ class _ProtocolTransport(AsyncTransport):
     async def _write_failed(self, exc: BaseException) -> None:
         raise await self._lost(exc) from exc
 
-    async def _drain_written(self, protocol: LineProtocol) -> None:
+    async def _drain_written(self, protocol: ReaderProtocol) -> None:
         drained = protocol.drained
         if drained is None:
             drained = protocol.drained = asyncio.get_running_loop().create_future()
@@ -257,7 +257,7 @@ class _ProtocolTransport(AsyncTransport):
                 protocol.waiter = None
         return await self._what_came(protocol)
 
-    async def _what_came(self, protocol: LineProtocol) -> bytes:
+    async def _what_came(self, protocol: ReaderProtocol) -> bytes:
         """After a wait: the bytes that came, else the line's loss, else nothing."""
         if protocol.buffer:
             data = bytes(protocol.buffer)
@@ -285,12 +285,12 @@ class AsyncTcpTransport(_ProtocolTransport):
         self.connect_timeout = connect_timeout
         self.url = url or f"tcp://{host}:{port}"
 
-    async def _connect(self) -> tuple[asyncio.BaseTransport, LineProtocol]:
+    async def _connect(self) -> tuple[asyncio.BaseTransport, ReaderProtocol]:
         loop = asyncio.get_running_loop()
         try:
             async with asyncio.timeout(self.connect_timeout):
                 transport, protocol = await loop.create_connection(
-                    LineProtocol, self.host, self.port
+                    ReaderProtocol, self.host, self.port
                 )
         except OSError as exc:
             raise tcp_open_error(self.url, exc) from exc
@@ -329,20 +329,20 @@ class AsyncSerialTransport(_ProtocolTransport):
         self.exclusive = exclusive
         self.low_latency = low_latency and not self.is_url
 
-    async def _connect(self) -> tuple[asyncio.BaseTransport, LineProtocol]:
+    async def _connect(self) -> tuple[asyncio.BaseTransport, ReaderProtocol]:
         settings = self.settings.as_kwargs()
         if not self.is_url:
             settings["exclusive"] = self.exclusive or None
         loop = asyncio.get_running_loop()
         try:
             transport, protocol = await serial_asyncio_fast.create_serial_connection(
-                loop, LineProtocol, self.port, **settings
+                loop, ReaderProtocol, self.port, **settings
             )
         except (serial.SerialException, OSError) as exc:
             raise port_error(self.port, exc) from exc
         except ValueError as exc:
             raise PortError(f"{self.port}: bad serial settings: {exc}") from exc
-        assert isinstance(protocol, LineProtocol)
+        assert isinstance(protocol, ReaderProtocol)
         if self.low_latency:
             port: Any = transport.get_extra_info("serial")
             # A pty or an adapter without the mode: nothing to gain, nothing lost.

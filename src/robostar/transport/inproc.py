@@ -21,7 +21,7 @@ __all__ = ["AsyncPeerTransport", "PeerTransport"]
 _MIN_NAP = 0.0005
 
 
-class _PeerLine:
+class _InProcessBase:
     """What both in-process transports keep: the peer, the clock, and whether it is open."""
 
     def __init__(
@@ -41,12 +41,12 @@ class _PeerLine:
         return self._open
 
     def _deliver(self, data: bytes) -> None:
-        self.peer.receive_data(bytes(data), self._clock())
+        self.peer.feed(bytes(data), self._clock())
 
     def _poll(self, now: float, end: float) -> tuple[bytes, float]:
         """The peer's bytes at ``now``, or how long to sleep before asking again (0: the
         read's time is up)."""
-        data = self.peer.data_to_send(now)
+        data = self.peer.output(now)
         if data or now >= end:
             return data, 0.0
         deadline = self.peer.next_deadline()
@@ -54,7 +54,7 @@ class _PeerLine:
         return b"", min(max(wake - now, _MIN_NAP), end - now)
 
 
-class PeerTransport(_PeerLine, Transport):
+class PeerTransport(_InProcessBase, Transport):
     """A blocking transport whose far end is an in-process byte peer."""
 
     def open(self) -> None:
@@ -79,7 +79,7 @@ class PeerTransport(_PeerLine, Transport):
             time.sleep(nap)
 
 
-class AsyncPeerTransport(_PeerLine, AsyncTransport):
+class AsyncPeerTransport(_InProcessBase, AsyncTransport):
     """The asyncio twin of :class:`PeerTransport`."""
 
     async def open(self) -> None:

@@ -11,9 +11,9 @@ from typing import Any
 from robostar.transport.aio import AsyncSerialTransport, AsyncTcpTransport, ThreadedAsyncTransport
 from robostar.transport.base import AsyncTransport, Transport
 from robostar.transport.inproc import AsyncPeerTransport, PeerTransport
+from robostar.transport.line_server import AsyncServeTransport, ServeTransport
 from robostar.transport.peer import BytePeer
 from robostar.transport.serial_port import SerialTransport
-from robostar.transport.serve import AsyncServeTransport, ServeTransport
 from robostar.transport.tcp import TcpTransport
 from robostar.transport.url import (
     SERIAL_OPTIONS,

@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 from robostar.errors import UsageError
 
 if TYPE_CHECKING:
-    from robostar.serve.server import LineServer
+    from robostar.serve.line_server import LineServer
 
 __all__ = ["FACES", "Face", "create_face"]
 

@@ -44,6 +44,8 @@ from robostar.commands.base import Command
 from robostar.commands.files import UploadFile
 from robostar.commands.registry import all_commands, decode_request
 from robostar.errors import ControllerError, RobostarError, UsageError
+from robostar.listen import check_host, is_loopback, parse_listen, warn_remote
+from robostar.serve.faces import Face, create_face
 from robostar.serve.http_guard import (
     DEFAULT_MAX_BODY,
     BodyLimit,
@@ -58,12 +60,9 @@ from robostar.serve.http_guard import (
 from robostar.serve.jsonable import jsonable, sample_json
 from robostar.serve.lease import LeaseHeldError, Who
 from robostar.serve.line import Line, LineBusyError, LineDownError
-from robostar.serving import check_host, is_loopback, parse_listen
-from robostar.serving.address import warn_remote
 
 if TYPE_CHECKING:
-    from robostar.serve.n1serve import N1Face
-    from robostar.serve.server import LineServer
+    from robostar.serve.line_server import LineServer
 
 __all__ = ["ApiFace", "build_app", "create"]
 
@@ -84,7 +83,10 @@ class _Api:
     def __init__(self, server: LineServer, token: str | None) -> None:
         self.server = server
         self.token = token
-        self.own_n1: N1Face | None = None
+        self.own_n1: dict[str, Face] = {}
+        """N1 faces of the API's own, a line each, for serve:// (made through the face registry:
+        faces never import each other)."""
+        self.own_n1_starting = asyncio.Lock()
 
     def authorised(self, request: Request) -> bool:
         if self.token is None:
@@ -116,7 +118,7 @@ class _Api:
         return Who(request.headers.get("x-robostar-who") or f"api:{client}", "api")
 
     def n1_address(self, name: str) -> tuple[str, int] | None:
-        for face in (self.server.faces.get("n1"), self.own_n1):
+        for face in (self.server.faces.get("n1"), self.own_n1.get(name)):
             if getattr(face, "ssl_context", None) is not None:
                 continue  # robostar's serve:// client speaks plain TCP: it gets its own port
             addresses = getattr(face, "addresses", {})
@@ -313,12 +315,11 @@ def build_app(
         _, line = got
         address = api.n1_address(line.name)
         if address is None:
-            from robostar.serve.n1serve import N1Face
-
-            face = api.own_n1
-            if face is None:
-                face = api.own_n1 = N1Face(server, {}, allow_remote=False)
-            await face.add_line(line.name, ("127.0.0.1", 0))
+            async with api.own_n1_starting:
+                if line.name not in api.own_n1:
+                    face = create_face("n1", server, {"lines": {line.name: "127.0.0.1:0"}})
+                    await face.start()
+                    api.own_n1[line.name] = face
             address = api.n1_address(line.name)
         return JSONResponse({"line": line.name, "n1": address})
 
@@ -448,8 +449,9 @@ class ApiFace:
                 await asyncio.wait_for(self._task, 5)
             self._task = None
         own = self.app.state.api.own_n1
-        if own is not None:
-            await own.stop()
+        for face in own.values():
+            await face.stop()
+        own.clear()
 
 
 def create(server: LineServer, options: Mapping[str, Any]) -> ApiFace:

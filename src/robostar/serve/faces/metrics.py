@@ -24,19 +24,18 @@ from prometheus_client.core import CounterMetricFamily, GaugeMetricFamily, Metri
 from prometheus_client.registry import Collector
 
 from robostar.errors import UsageError
+from robostar.listen import check_host, parse_listen, warn_remote
 from robostar.serve.http_guard import HostRule, hosts_option
-from robostar.serving import check_host, parse_listen
-from robostar.serving.address import warn_remote
 
 if TYPE_CHECKING:
-    from robostar.serve.server import LineServer
+    from robostar.serve.line_server import LineServer
 
-__all__ = ["LineCollector", "MetricsFace", "create", "registry_for"]
+__all__ = ["HealthCollector", "MetricsFace", "create", "registry_for"]
 
 log = logging.getLogger("robostar.serve.metrics")
 
 
-class LineCollector(Collector):
+class HealthCollector(Collector):
     """Reads every line's health at scrape time (nothing to update on the hot path)."""
 
     def __init__(self, server: LineServer) -> None:
@@ -105,7 +104,7 @@ class LineCollector(Collector):
 
 def registry_for(server: LineServer) -> CollectorRegistry:
     registry = CollectorRegistry()
-    registry.register(LineCollector(server))
+    registry.register(HealthCollector(server))
     return registry
 
 

@@ -45,7 +45,7 @@ from robostar.serve.model import Sample
 
 if TYPE_CHECKING:
     from robostar.serve.line import Line
-    from robostar.serve.server import LineServer
+    from robostar.serve.line_server import LineServer
 
 __all__ = ["BusyError", "MqttFace", "MqttSettings", "create"]
 
@@ -295,7 +295,7 @@ class _Lane:
     )
 
 
-class _LineLink:
+class _BrokerLink:
     """One line's connection, buffer, pump and command lanes."""
 
     def __init__(self, face: MqttFace, line: Line) -> None:
@@ -768,7 +768,7 @@ class MqttFace:
         self.server = server
         self.settings = settings
         self.topics = Topics(settings.prefix)
-        self.links: dict[str, _LineLink] = {}
+        self.links: dict[str, _BrokerLink] = {}
         self.tasks: set[asyncio.Task[Any]] = set()
         self._stopping = False
         self.presence: aiomqtt.Client | None = None
@@ -842,7 +842,7 @@ class MqttFace:
 
     async def start(self) -> None:
         for name, line in self.server.lines.items():
-            link = self.links[name] = _LineLink(self, line)
+            link = self.links[name] = _BrokerLink(self, line)
             self._spawn(f"{name} pump", link.pump)
             self._spawn(f"{name} connection", link.connect_loop)
             if self.settings.commands:

@@ -40,7 +40,7 @@ from robostar.serve.faces.opcua.address_space import (
 )
 from robostar.serve.faces.opcua.methods import handler_for
 from robostar.serve.faces.opcua.nodesets import CachedInternalServer, LoadReport
-from robostar.serve.faces.opcua.publisher import ALARM_EVENT_FIELDS, LinePublisher
+from robostar.serve.faces.opcua.publisher import ALARM_EVENT_FIELDS, NodeWriter
 from robostar.serve.faces.opcua.security import (
     RefuseAllRuleset,
     RoleRuleset,
@@ -53,7 +53,7 @@ from robostar.serve.users import UserStore
 
 if TYPE_CHECKING:
     from robostar.serve.line import Line
-    from robostar.serve.server import LineServer
+    from robostar.serve.line_server import LineServer
 
 __all__ = ["OpcUaFace", "OpcUaSettings", "create", "settings_from"]
 
@@ -70,7 +70,7 @@ class OpcUaFace:
         self.ua: Server | None = None
         self.ns: Namespaces | None = None
         self.devices: dict[str, DeviceNodes] = {}
-        self.publishers: dict[str, LinePublisher] = {}
+        self.publishers: dict[str, NodeWriter] = {}
         self.tasks: set[asyncio.Task[Any]] = set()
         self.load = LoadReport()
         self.startup_seconds = 0.0
@@ -215,7 +215,7 @@ class OpcUaFace:
                 self.ua.link_method(node, handler_for(line, name, channel))
         events = EventGenerator(self.ua.iserver.isession)
         await events.init(self._event_type, emitting_node=nodes.system.nodeid)
-        publisher = LinePublisher(self.ua, nodes, events, self.ns.robotics, self.ns.vendor)
+        publisher = NodeWriter(self.ua, nodes, events, self.ns.robotics, self.ns.vendor)
         await publisher.waiting()
         if line.model.get("online") is None:
             await publisher.show_online(line.up)

@@ -33,7 +33,7 @@ from robostar.serve.faces.opcua.address_space import ChannelNodes, DeviceNodes
 from robostar.serve.model import Quality, Sample
 from robostar.types import Alarm, ChannelStatus, Position
 
-__all__ = ["ALARM_EVENT_FIELDS", "EMERGENCY_CODES", "LinePublisher", "status_of"]
+__all__ = ["ALARM_EVENT_FIELDS", "EMERGENCY_CODES", "NodeWriter", "status_of"]
 
 log = logging.getLogger("robostar.serve.opcua")
 
@@ -68,7 +68,7 @@ def is_emergency(alarm: Alarm) -> bool:
     return alarm.code in EMERGENCY_CODES or "emergency" in alarm.text.lower()
 
 
-class LinePublisher:
+class NodeWriter:
     """Writes one line's model changes into its nodes (see the module docstring)."""
 
     def __init__(

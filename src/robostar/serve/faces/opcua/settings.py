@@ -12,7 +12,7 @@ import platformdirs
 
 from robostar.commands.variables import ReadGlobalFloat, ReadGlobalInt
 from robostar.errors import UsageError
-from robostar.serving import is_loopback, parse_listen
+from robostar.listen import is_loopback, parse_listen
 from robostar.transport.url import netloc
 
 __all__ = ["OpcUaSettings", "settings_from"]

@@ -33,7 +33,7 @@ from typing import Any
 
 from robostar.errors import UsageError
 from robostar.serve.http_guard import is_loopback_name
-from robostar.serve.server import LineServer
+from robostar.serve.line_server import LineServer
 from robostar.transport.url import netloc
 
 __all__ = ["DEFAULT_LISTEN", "WebFace", "create"]

@@ -51,12 +51,12 @@ from robostar.serve.faces.web.auth import (
     SESSION_LIFETIME,
     Account,
     LoginLimiter,
-    Sessions,
+    SignInSessions,
     account_of,
     csrf_ok,
     read_form,
 )
-from robostar.serve.faces.web.jog import JogSession
+from robostar.serve.faces.web.jog import JogPanel
 from robostar.serve.faces.web.limits import (
     DEFAULT_MAX_BODY,
     MAX_UPLOAD,
@@ -78,7 +78,7 @@ from robostar.serve.http_guard import (
 from robostar.serve.jsonable import jsonable
 from robostar.serve.lease import Who
 from robostar.serve.line import Line, LineBusyError, LineDownError
-from robostar.serve.server import LineServer
+from robostar.serve.line_server import LineServer
 from robostar.serve.users import Role, UserStore
 from robostar.types import (
     ArmForm,
@@ -138,7 +138,7 @@ def build_app(server: LineServer, settings: WebSettings) -> Starlette:
     verifying = asyncio.Semaphore(CONCURRENT_VERIFIES)
     waiting = 0
     users = settings.users
-    sessions = Sessions()
+    sessions = SignInSessions()
     refusals = Refusals()
 
     def line_of(request: Request | WebSocket) -> Line:
@@ -844,7 +844,7 @@ async def _jog_socket(
     websocket: WebSocket,
     server: LineServer,
     users: UserStore,
-    sessions: Sessions,
+    sessions: SignInSessions,
     refusals: Refusals,
 ) -> None:
     """The jog panel's socket: only an operator, with the page's CSRF token, from this origin."""
@@ -872,7 +872,7 @@ async def _jog_socket(
     def still_operator() -> bool:  # a sign-out, a removed user or a lowered role ends the jog
         return account_of(websocket, users, sessions).may(Role.OPERATOR)
 
-    session = JogSession(line, Who(account.name, "web"), still_operator)
+    session = JogPanel(line, Who(account.name, "web"), still_operator)
     try:
         await session.run(websocket)
     except WebSocketDisconnect:

@@ -1,7 +1,7 @@
 """Who is signed in, what they may do, and the guards of every state-changing request.
 
 Sessions live in a signed, HTTP-only cookie (Starlette's SessionMiddleware) that holds the user's
-name, a CSRF token and a session id; the server keeps the ids it gave out (:class:`Sessions`,
+name, a CSRF token and a session id; the server keeps the ids it gave out (:class:`SignInSessions`,
 bounded, each expiring), so signing out ends a session for good (its cookie, replayed, is
 anonymous), and a session ends when its user is removed or their password changes. The users
 file is looked at again on every request, so a lowered role takes effect on the next one.
@@ -27,7 +27,7 @@ __all__ = [
     "CSRF_HEADER",
     "Account",
     "LoginLimiter",
-    "Sessions",
+    "SignInSessions",
     "account_of",
     "csrf_ok",
     "read_form",
@@ -67,13 +67,13 @@ class Account:
 
 
 @dataclass(slots=True)
-class _Session:
+class _SignIn:
     name: str
     password_hash: str
     expires: float
 
 
-class Sessions:
+class SignInSessions:
     """The signed-in sessions the server gave out: id -> user, at most ``limit`` (the least
     recently used goes first), each ending ``lifetime`` seconds after its last use. Kept in
     memory: a restart signs everyone out."""
@@ -87,7 +87,7 @@ class Sessions:
         self.lifetime = lifetime
         self.limit = limit
         self._clock = clock
-        self._sessions: dict[str, _Session] = {}
+        self._sessions: dict[str, _SignIn] = {}
 
     def __len__(self) -> int:
         return len(self._sessions)
@@ -100,7 +100,7 @@ class Sessions:
         while len(self._sessions) >= self.limit:
             del self._sessions[next(iter(self._sessions))]
         sid = secrets.token_urlsafe(32)
-        self._sessions[sid] = _Session(user.name, user.password_hash, now + self.lifetime)
+        self._sessions[sid] = _SignIn(user.name, user.password_hash, now + self.lifetime)
         return sid
 
     def check(self, sid: str, user: User) -> bool:
@@ -120,7 +120,7 @@ class Sessions:
             self._sessions.pop(sid, None)
 
 
-def account_of(connection: HTTPConnection, users: UserStore, sessions: Sessions) -> Account:
+def account_of(connection: HTTPConnection, users: UserStore, sessions: SignInSessions) -> Account:
     """The account of a request or WebSocket; gives the session a CSRF token if it has none.
     A session the server no longer knows, or whose user is gone, is anonymous from now on."""
     users.refresh(every=0.0)  # a stat() of the users file; read again only when it changed

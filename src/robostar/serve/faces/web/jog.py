@@ -22,7 +22,7 @@ from robostar.serve.lease import Who
 from robostar.serve.line import Line
 from robostar.types import JogDirection, MotionType
 
-__all__ = ["KEEPALIVE_EVERY", "SILENCE", "JogSession"]
+__all__ = ["KEEPALIVE_EVERY", "SILENCE", "JogPanel"]
 
 log = logging.getLogger(__name__)
 
@@ -39,7 +39,7 @@ class _Socket(Protocol):
     async def send_text(self, data: str) -> None: ...
 
 
-class JogSession:
+class JogPanel:
     """One browser's jog panel on one line: at most one axis moving at a time."""
 
     def __init__(self, line: Line, who: Who, allowed: Callable[[], bool] | None = None) -> None:

@@ -1,6 +1,6 @@
 """The N1 face: the unchanged N1 host protocol (controller role) on a TCP port per line.
 
-See :mod:`robostar.serve.n1serve` for how sessions, the queue and the lease meet.
+See :mod:`robostar.serve.faces.n1.backend` for how sessions, the queue and the lease meet.
 
 The N1 protocol carries no credentials, so a port beyond loopback must say who may use it: the
 hosts allowed (``allow_from``, for host programs that speak plain TCP, as every existing one
@@ -14,13 +14,14 @@ import ssl
 from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
+from robostar.controller_role.limits import HostLimits
 from robostar.errors import UsageError
-from robostar.serve.n1serve import N1Face
-from robostar.serving import is_loopback, parse_listen
-from robostar.serving.aio import HostLimits, parse_networks
+from robostar.listen import is_loopback, parse_listen
+from robostar.serve.faces.n1.face import N1Face
+from robostar.serve.faces.n1.host import parse_networks
 
 if TYPE_CHECKING:
-    from robostar.serve.server import LineServer
+    from robostar.serve.line_server import LineServer
 
 __all__ = ["N1Face", "create", "mutual_tls_context"]
 

@@ -12,9 +12,9 @@ from collections.abc import Iterator
 
 import pytest
 
-from robostar.serving import threaded
-from robostar.serving.threaded import PeerHost, _arrival, _TcpStream
 from robostar.sim import SimConfig, VirtualController
+from robostar.sim import host as sim_host
+from robostar.sim.host import PeerHost, _arrival, _TcpStream
 from robostar.sim.pacing import PacedPeer
 
 linux_only = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="SO_TIMESTAMPNS")
@@ -67,7 +67,7 @@ def test_a_paced_listener_has_stamps_on_before_the_first_host_connects() -> None
     """Asked for on the listening socket, stamps are on by the time a host connects, and its
     very first packet is stamped (asked for only on the accepted socket, it may not be)."""
     with socket.create_server(("127.0.0.1", 0)) as listener:
-        assert threaded._ask_for_stamps(listener)
+        assert sim_host._ask_for_stamps(listener)
         time.sleep(0.05)  # a listener exists a while before hosts connect; the kernel's work runs
         for _ in range(5):  # each a fresh connection: every first packet stamped
             with socket.create_connection(listener.getsockname()) as client:
@@ -97,7 +97,7 @@ def test_stamps_that_cannot_be_believed_are_ignored() -> None:
         seconds = int(at)
         nanoseconds = int((at - seconds) * 1e9)
         payload = struct.pack("qq", seconds, nanoseconds)
-        return [(socket.SOL_SOCKET, threaded._SO_TIMESTAMPNS, payload)]
+        return [(socket.SOL_SOCKET, sim_host._SO_TIMESTAMPNS, payload)]
 
     assert _arrival(stamp(now - 0.01)) is not None
     assert _arrival(stamp(now + 10)) is None  # from the future
@@ -115,6 +115,6 @@ def test_only_a_paced_host_asks_for_stamps_when_it_listens() -> None:
         host.listen_tcp()
         try:
             (listener,) = host._listeners
-            assert listener.getsockopt(socket.SOL_SOCKET, threaded._SO_TIMESTAMPNS) == wanted
+            assert listener.getsockopt(socket.SOL_SOCKET, sim_host._SO_TIMESTAMPNS) == wanted
         finally:
             host.close()

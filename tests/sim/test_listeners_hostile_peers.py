@@ -21,13 +21,14 @@ from hypothesis import strategies as st
 from robostar import Client
 from robostar.commands.files import UploadFile
 from robostar.commands.status import ReadStatus
+from robostar.controller_role import ControllerSession, Request, UploadLimits
 from robostar.errors import UploadIncompleteError, UsageError
+from robostar.listen import warn_remote
 from robostar.protocol.frame import encode_packet
-from robostar.serving import Request, Session, UploadLimits, warn_remote
 from robostar.sim import SimConfig, VirtualController
 from robostar.sim.control import MAX_CONNECTIONS, MAX_LINE, ControlServer, send_control
+from robostar.sim.listeners import SimServer
 from robostar.sim.model import Model
-from robostar.sim.server import SimServer
 from robostar.sim.store import StateStore
 from robostar.types import ArmForm, Point
 
@@ -69,8 +70,8 @@ def assert_serves(server: SimServer) -> None:
 # -- floods and bugs in one session ------------------------------------------------------------
 def test_thousands_of_requests_in_one_write_are_taken_without_recursion() -> None:
     controller = VirtualController(SimConfig())
-    controller.receive_data(encode_packet(AA) * 2000, 0.0)
-    out = controller.data_to_send(0.0)
+    controller.feed(encode_packet(AA) * 2000, 0.0)
+    out = controller.output(0.0)
     assert out.startswith(
         encode_packet(ReadStatus().encode_answer(controller_status(controller))[0])
     )
@@ -390,4 +391,4 @@ def test_sessions_are_counted_across_connections(sim: tuple[SimServer, VirtualCo
         with client_of(server) as client:
             client.set_speed(1, 500)
     assert controller.executions["CB"] == 3
-    assert isinstance(controller.session, Session)
+    assert isinstance(controller.session, ControllerSession)

@@ -1,4 +1,4 @@
-"""The threaded host's record of where a line stands in a packet (``_LineTail``), which closes
+"""The threaded host's record of where a line stands in a packet (``_PacketTail``), which closes
 a packet a departing client left half-sent: a read taken whole must leave it as the same bytes
 taken one at a time do."""
 
@@ -8,7 +8,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from robostar.protocol.frame import ACK, ETX, NAK, RST, STX
-from robostar.serving.threaded import _LineTail
+from robostar.sim.host import _PacketTail
 
 # Bytes that matter to the tail (STX, ETX) and the control bytes, often, among any others.
 line_bytes = st.binary(max_size=40) | st.lists(
@@ -16,11 +16,11 @@ line_bytes = st.binary(max_size=40) | st.lists(
 ).map(bytes)
 
 
-def state(tail: _LineTail) -> tuple[bool, bool, int, bytes]:
+def state(tail: _PacketTail) -> tuple[bool, bool, int, bytes]:
     return tail.in_packet, tail.in_lrc, tail.xor, tail.closing_bytes()
 
 
-def feed_bytewise(tail: _LineTail, data: bytes) -> None:
+def feed_bytewise(tail: _PacketTail, data: bytes) -> None:
     """The rule, one byte at a time: after ETX the next byte is the LRC whatever it is; STX
     (re)starts a packet; inside one, every other byte counts in the XOR."""
     for byte in data:
@@ -38,7 +38,7 @@ def feed_bytewise(tail: _LineTail, data: bytes) -> None:
 
 @given(st.lists(line_bytes, max_size=6))
 def test_reads_taken_whole_leave_the_tail_as_the_bytewise_rule_does(reads: list[bytes]) -> None:
-    whole, reference = _LineTail(), _LineTail()
+    whole, reference = _PacketTail(), _PacketTail()
     for data in reads:
         whole.feed(data)
         feed_bytewise(reference, data)

@@ -1,11 +1,11 @@
 """One N1 session in the controller role, sans-IO: the link, request decoding, FB assembly.
 
-A :class:`Session` is driven like a :class:`~robostar.transport.peer.BytePeer` (bytes and the
-time in, bytes out) and hands each decoded request to a :class:`Backend` as a :class:`Request`.
-The backend answers it at once or later, from anywhere on the session's thread or event loop;
-a late answer is applied on the next call into the session (the session calls its ``on_ready``
-hook so that the host makes that call soon). Every piece of work runs from one loop, never
-recursively, so any number of requests in one write cannot exhaust the stack.
+A :class:`ControllerSession` is driven like a :class:`~robostar.transport.peer.BytePeer` (bytes and
+the time in, bytes out) and hands each decoded request to a :class:`Backend` as a :class:`Request`.
+The backend answers it at once or later, from anywhere on the session's thread or event loop; a late
+answer is applied on the next call into the session (the session calls its ``on_ready`` hook so that
+the host makes that call soon). Every piece of work runs from one loop, never recursively, so any
+number of requests in one write cannot exhaust the stack.
 """
 
 from __future__ import annotations
@@ -39,7 +39,7 @@ from robostar.protocol.link import (
 from robostar.protocol.packets import Shape, make_answer
 from robostar.types import Point
 
-__all__ = ["Backend", "Refusal", "Request", "Session", "UploadLimits"]
+__all__ = ["Backend", "ControllerSession", "Refusal", "Request", "UploadLimits"]
 
 log = logging.getLogger(__name__)
 
@@ -94,7 +94,7 @@ class Request:
 
     __slots__ = ("_abort", "_packets", "_phase", "_refusal", "_session", "command", "points")
 
-    def __init__(self, session: Session, command: Command[Any]) -> None:
+    def __init__(self, session: ControllerSession, command: Command[Any]) -> None:
         self._session = session
         self.command = command
         self.points: dict[int, Point] = {}
@@ -105,7 +105,7 @@ class Request:
         self._abort: str | None = None
 
     @property
-    def session(self) -> Session:
+    def session(self) -> ControllerSession:
         return self._session
 
     @property
@@ -164,11 +164,11 @@ class Backend:
         """Act on ``request`` and answer it now or later (raising :class:`Refusal` refuses)."""
         raise NotImplementedError
 
-    def begin_upload(self, session: Session, command: UploadFile) -> None:
+    def begin_upload(self, session: ControllerSession, command: UploadFile) -> None:
         """FB arrived in ``session`` (no lines yet): raise :class:`Refusal` to refuse before the
         lines (the session says who uploads: one backend serves many)."""
 
-    def exchange_abandoned(self, session: Session, request: Request) -> None:
+    def exchange_abandoned(self, session: ControllerSession, request: Request) -> None:
         """The host of ``session`` gave ``request``'s exchange up (an RST, a new request) while
         the backend still has it: stop work nobody waits for (a write queued for a host that
         moved on must not run). Told at once (the link holds the host's input until the
@@ -177,10 +177,10 @@ class Backend:
         next request. After a two-phase first answer the host's move ends the exchange at once
         instead, and :attr:`~Request.live` turns False."""
 
-    def note_error(self, session: Session, text: str) -> None:
+    def note_error(self, session: ControllerSession, text: str) -> None:
         """A refusal or a line error in ``session``: the text KD is to report."""
 
-    def session_closed(self, session: Session) -> None:
+    def session_closed(self, session: ControllerSession) -> None:
         """``session``'s connection is gone (release what it held)."""
 
     def dress_answer(self, command: Command[Any], packets: list[bytes]) -> list[bytes]:
@@ -195,7 +195,7 @@ class _Upload:
     size: int = 0
 
 
-class Session:
+class ControllerSession:
     """An N1 session (controller role) for one connection, serving ``backend``."""
 
     def __init__(
@@ -215,7 +215,7 @@ class Session:
         self.last_error = ""
         """The last refusal or line error, as KD reports it."""
         self.on_ready: Callable[[], None] | None = None
-        """Called when a late answer is ready: the host should call :meth:`data_to_send`."""
+        """Called when a late answer is ready: the host should call :meth:`output`."""
         self.closed = False
         self.current: Request | None = None
         self._upload: _Upload | None = None
@@ -225,7 +225,7 @@ class Session:
         self._running = False
 
     # -- BytePeer ------------------------------------------------------------------------------
-    def receive_data(self, data: bytes, now: float) -> None:
+    def feed(self, data: bytes, now: float) -> None:
         """Bytes the host program wrote (ignored once closed)."""
         if self.closed:
             return
@@ -236,7 +236,7 @@ class Session:
             self.error(_CORRUPT_TEXT[self.link.last_corrupt])
         self._run(events)
 
-    def data_to_send(self, now: float) -> bytes:
+    def output(self, now: float) -> bytes:
         """Apply ready answers and timeouts at ``now``; the bytes for the host program."""
         self._now = now
         self._run(self.link.handle_timeout(now))

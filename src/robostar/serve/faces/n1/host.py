@@ -1,10 +1,11 @@
 """The asyncio host: N1 sessions on a TCP port, one per connection, on the running event loop.
 
 :class:`AsyncHost` takes a factory that makes one byte peer per connection (usually a
-:class:`~robostar.serving.session.Session` on a shared backend). Each connection is driven by
-``loop.time()``: bytes in, the peer's bytes out, a timer at the peer's ``next_deadline()``, and
-a pump soon after a backend answers late (the session's ``on_ready``). A connection whose peer
-raises, or that leaves too much unread, is dropped with a log line; the others go on.
+:class:`~robostar.controller_role.session.ControllerSession` on a shared backend). Each connection
+is driven by ``loop.time()``: bytes in, the peer's bytes out, a timer at the peer's
+``next_deadline()``, and a pump soon after a backend answers late (the session's ``on_ready``). A
+connection whose peer raises, or that leaves too much unread, is dropped with a log line; the others
+go on.
 
 Slots are held only by connections in use: each socket has TCP keepalive with short probes (a
 peer that vanished, power cut or cable pulled, is found within about half a minute) and a
@@ -25,42 +26,30 @@ import asyncio
 import contextlib
 import ipaddress
 import logging
-import math
 import socket
 import ssl
-from collections.abc import Callable, Iterable, Mapping
-from dataclasses import dataclass
+from collections.abc import Callable, Iterable
 
 from robostar.commands.files import UploadFile
 from robostar.commands.system import ReadLastError
+from robostar.controller_role.limits import (
+    IDLE_TIMEOUT,
+    MAX_CLIENTS,
+    MAX_PENDING,
+    check_limits,
+)
+from robostar.controller_role.session import Backend, ControllerSession, Refusal, Request
 from robostar.errors import UsageError
+from robostar.listen import check_host, check_port
 from robostar.protocol.fields import FLAG_FAILED
-from robostar.serving.address import check_host, check_port
-from robostar.serving.session import Backend, Refusal, Request, Session
 from robostar.transport.peer import BytePeer
 
-__all__ = [
-    "IDLE_TIMEOUT",
-    "MAX_CLIENTS",
-    "AsyncHost",
-    "HostLimits",
-    "parse_networks",
-]
+__all__ = ["AsyncHost", "parse_networks"]
 
 Network = ipaddress.IPv4Network | ipaddress.IPv6Network
 
 log = logging.getLogger(__name__)
 
-MAX_PENDING = 1 << 20
-"""A client that leaves this many bytes unread is dropped, so it cannot hold the server's memory."""
-MAX_CLIENTS = 16
-"""Sessions served at once, by default."""
-IDLE_TIMEOUT = 600.0
-"""Seconds a connection may send and receive nothing before it is closed, by default. The N1
-protocol has no unsolicited messages, so a host program that watches a robot asks every fraction
-of a second or few seconds; ten minutes of silence is a connection nobody uses any more (a script
-that did not close it, a program left open on a desk PC). Generous, so that no working host
-program is cut off, yet it gives the slot back within minutes rather than never."""
 KEEPALIVE_IDLE = 15
 """Seconds of silence before the first TCP keepalive probe (Linux: TCP_KEEPIDLE)."""
 KEEPALIVE_INTERVAL = 5
@@ -73,49 +62,6 @@ TURN_AWAY_IDLE = 1.0
 sends its request as soon as it connects, and its KD right after the refusal."""
 TURN_AWAY_MAX = 10.0
 """Seconds a connection past ``max_clients`` is kept at most, however busy it is."""
-
-
-@dataclass(frozen=True, slots=True)
-class HostLimits:
-    """How many sessions a host serves at once, and how long a silent one keeps its slot
-    (``idle_timeout`` None: forever, leaving dead peers to TCP keepalive)."""
-
-    max_clients: int = MAX_CLIENTS
-    idle_timeout: float | None = IDLE_TIMEOUT
-
-    def __post_init__(self) -> None:
-        _check_limits(self.max_clients, self.idle_timeout)
-
-    @classmethod
-    def from_options(cls, options: Mapping[str, object], where: str = "n1") -> HostLimits:
-        """``max_clients`` (1 or more) and ``idle_timeout`` (seconds; 0 never closes an idle
-        connection) from a config table; UsageError naming ``where.key`` when wrong."""
-        max_clients = options.get("max_clients", MAX_CLIENTS)
-        idle = options.get("idle_timeout", IDLE_TIMEOUT)
-        if isinstance(max_clients, bool) or not isinstance(max_clients, int) or max_clients < 1:
-            raise UsageError(f"{where}.max_clients: {max_clients!r} is not a whole number >= 1")
-        if (
-            isinstance(idle, bool)
-            or not isinstance(idle, int | float)
-            or not math.isfinite(idle)
-            or idle < 0
-        ):
-            raise UsageError(
-                f"{where}.idle_timeout: {idle!r} is not a number of seconds (0: never)"
-            )
-        return cls(max_clients, float(idle) if idle > 0 else None)
-
-
-def _check_limits(max_clients: object, idle_timeout: object) -> None:
-    if isinstance(max_clients, bool) or not isinstance(max_clients, int) or max_clients < 1:
-        raise UsageError(f"max_clients: {max_clients!r} is not 1 or more")
-    if idle_timeout is not None and (
-        isinstance(idle_timeout, bool)
-        or not isinstance(idle_timeout, int | float)
-        or not math.isfinite(idle_timeout)
-        or idle_timeout <= 0
-    ):
-        raise UsageError(f"idle_timeout: {idle_timeout!r} is not a number of seconds > 0 or None")
 
 
 def _keepalive(sock: socket.socket) -> None:
@@ -146,7 +92,7 @@ class _TurnAway(Backend):
             return
         raise Refusal(self.reason, FLAG_FAILED)
 
-    def begin_upload(self, session: Session, command: UploadFile) -> None:
+    def begin_upload(self, session: ControllerSession, command: UploadFile) -> None:
         raise Refusal(self.reason, FLAG_FAILED)
 
 
@@ -187,7 +133,7 @@ class _Connection(asyncio.Protocol):
             # leave a host that already sent a request not knowing whether it ran.
             log.warning("%s: turning %s away: %s", owner.name, self.name, reason)
             self._turned_away = True
-            self.peer = Session(_TurnAway(reason), name=self.name)
+            self.peer = ControllerSession(_TurnAway(reason), name=self.name)
             self.peer.on_ready = self._soon
             owner.turned_away.add(self)
             self._socket_options(transport)
@@ -199,7 +145,7 @@ class _Connection(asyncio.Protocol):
             log.exception("%s: cannot open a session for %s", owner.name, self.name)
             transport.abort()
             return
-        if isinstance(self.peer, Session):
+        if isinstance(self.peer, ControllerSession):
             self.peer.on_ready = self._soon
         owner.connections.add(self)
         log.info("%s: client %s connected", owner.name, self.name)
@@ -243,7 +189,7 @@ class _Connection(asyncio.Protocol):
             return
         self._last_activity = self.loop.time()
         try:
-            peer.receive_data(data, self.loop.time())
+            peer.feed(data, self.loop.time())
         except Exception:
             self._fail()
             return
@@ -260,7 +206,7 @@ class _Connection(asyncio.Protocol):
         if peer is None or transport is None or transport.is_closing():
             return
         try:
-            out = peer.data_to_send(self.loop.time())
+            out = peer.output(self.loop.time())
             deadline = peer.next_deadline()
         except Exception:
             self._fail()
@@ -295,7 +241,7 @@ class _Connection(asyncio.Protocol):
         if self in self.owner.connections:
             self.owner.connections.discard(self)
             log.info("%s: client %s left", self.owner.name, self.name)
-        if isinstance(self.peer, Session):
+        if isinstance(self.peer, ControllerSession):
             self.peer.close()
         self.peer = None
 
@@ -330,7 +276,7 @@ class AsyncHost:
         name: str = "n1",
         idle_timeout: float | None = IDLE_TIMEOUT,
     ) -> None:
-        _check_limits(max_clients, idle_timeout)
+        check_limits(max_clients, idle_timeout)
         self.factory = factory
         self.max_clients = max_clients
         self.idle_timeout = idle_timeout

@@ -27,20 +27,17 @@ from dataclasses import dataclass, field
 from types import TracebackType
 from typing import Protocol, Self, runtime_checkable
 
+from robostar.controller_role.limits import MAX_CLIENTS, MAX_PENDING, MAX_PENDING_PTY
 from robostar.errors import PortError, UsageError
+from robostar.listen import check_host, check_port, tcp_url
 from robostar.protocol.frame import ETX, NAK, RST, lrc
-from robostar.serving.address import check_host, check_port, tcp_url
 from robostar.transport.peer import BytePeer
 
-__all__ = ["DEFAULT_MAX_CLIENTS", "PeerHost", "SessionSource"]
+__all__ = ["PeerHost", "SessionSource"]
 
 log = logging.getLogger(__name__)
 
 _READ_SIZE = 4096
-_MAX_PENDING_TCP = 1 << 20
-"""A TCP client that leaves this much unread is dropped, so it cannot stall the controller."""
-_MAX_PENDING_PTY = 1 << 16
-"""Bytes for a pseudo-terminal nobody reads are thrown away past this, as on an unplugged line."""
 _IDLE_WAKE = 0.2
 """The loop looks at the peer at least this often, for changes made from other threads."""
 _MIN_WAIT = 0.0002
@@ -82,8 +79,6 @@ _JOIN_TIMEOUT = 10.0
 _ACCEPT_BACKOFF = 0.5
 """Seconds the listeners rest after an accept failed for want of descriptors or memory."""
 _ACCEPT_RESOURCE_ERRORS = frozenset((errno.EMFILE, errno.ENFILE, errno.ENOBUFS, errno.ENOMEM))
-DEFAULT_MAX_CLIENTS = 16
-"""TCP clients one host serves at once by default."""
 
 
 @runtime_checkable
@@ -125,7 +120,7 @@ def _disconnect_takers(peer: object) -> tuple[Callable[[], bool], ...]:
     return tuple(takers)
 
 
-class _LineTail:
+class _PacketTail:
     """Where the bytes fed to the peer stand in a packet, to finish a half-sent one.
 
     A client that disconnects in the middle of a packet would leave the controller's decoder
@@ -192,7 +187,7 @@ class _Stream:
     """One byte stream to a host program: a TCP client or the pseudo-terminal's master side."""
 
     kind = "stream"
-    max_pending = _MAX_PENDING_TCP
+    max_pending = MAX_PENDING
 
     def __init__(self, name: str) -> None:
         self.name = name
@@ -250,7 +245,7 @@ class _TcpStream(_Stream):
 
 class _PtyStream(_Stream):
     kind = "pty"
-    max_pending = _MAX_PENDING_PTY
+    max_pending = MAX_PENDING_PTY
 
     def __init__(self) -> None:
         import tty
@@ -290,7 +285,7 @@ class _PtyStream(_Stream):
 
 
 @dataclass(eq=False)
-class _Line:
+class _PeerStreams:
     """A byte peer and the streams it serves (one for a session, any number when shared)."""
 
     peer: BytePeer
@@ -298,7 +293,7 @@ class _Line:
     """A session from the source: closed with its stream, and its failure drops only it."""
     streams: list[_Stream] = field(default_factory=list)
     current: _Stream | None = None
-    tail: _LineTail = field(default_factory=lambda: _LineTail())
+    tail: _PacketTail = field(default_factory=lambda: _PacketTail())
     hide_reaction: bool = False
     takers: tuple[Callable[[], bool], ...] | None = None
     """The peer chain's ``take_disconnect`` methods, found on first use."""
@@ -320,14 +315,14 @@ class PeerHost:
         source: SessionSource | BytePeer,
         *,
         name: str = "sim",
-        max_clients: int = DEFAULT_MAX_CLIENTS,
+        max_clients: int = MAX_CLIENTS,
     ) -> None:
         if isinstance(source, SessionSource):
             self.source: SessionSource | None = source
-            self._shared: _Line | None = None
+            self._shared: _PeerStreams | None = None
         elif isinstance(source, BytePeer):
             self.source = None
-            self._shared = _Line(source, owned=False)
+            self._shared = _PeerStreams(source, owned=False)
         else:
             raise UsageError(f"peer: {type(source).__name__} is not a BytePeer or SessionSource")
         if isinstance(max_clients, bool) or not isinstance(max_clients, int) or max_clients < 1:
@@ -351,8 +346,8 @@ class PeerHost:
         self._wake_w.setblocking(False)
         self._selector.register(self._wake_r, selectors.EVENT_READ, self._on_wake)
         self._listeners: list[socket.socket] = []
-        self._lines: list[_Line] = [] if self._shared is None else [self._shared]
-        self._line_of: dict[_Stream, _Line] = {}
+        self._lines: list[_PeerStreams] = [] if self._shared is None else [self._shared]
+        self._line_of: dict[_Stream, _PeerStreams] = {}
         self._accept_paused_until: float | None = None
         self._accept_error_logged = False
         self.accept_failures = 0
@@ -567,7 +562,7 @@ class PeerHost:
         else:
             assert self.source is not None
             with self.lock:
-                line = _Line(self.source.open_session(stream.name), owned=True)
+                line = _PeerStreams(self.source.open_session(stream.name), owned=True)
             self._lines.append(line)
         line.streams.append(stream)
         self._line_of[stream] = line
@@ -592,7 +587,7 @@ class PeerHost:
                 with self.lock:
                     if self.source is not None:
                         self.source.poll(now)
-                    if not self._guard(line, line.peer.receive_data, data, at):
+                    if not self._guard(line, line.peer.feed, data, at):
                         return
                 line.current = stream
                 line.tail.feed(data)
@@ -604,7 +599,7 @@ class PeerHost:
         if mask & selectors.EVENT_WRITE:
             self._flush(stream)
 
-    def _guard(self, line: _Line, call: object, *args: object) -> bool:
+    def _guard(self, line: _PeerStreams, call: object, *args: object) -> bool:
         """Call into a line's peer; a session that raises is dropped (False), alone."""
         assert callable(call)
         try:
@@ -627,11 +622,11 @@ class PeerHost:
         for line in list(self._lines):
             self._pump_line(line)
 
-    def _pump_line(self, line: _Line) -> None:
+    def _pump_line(self, line: _PeerStreams) -> None:
         """Hand the peer's bytes to the stream being answered; act on a cut line."""
         got: list[bytes] = []
         with self.lock:
-            if not self._guard(line, lambda: got.append(line.peer.data_to_send(time.monotonic()))):
+            if not self._guard(line, lambda: got.append(line.peer.output(time.monotonic()))):
                 return
             takers = line.takers
             if takers is None:
@@ -703,7 +698,7 @@ class PeerHost:
             line.tail.reset()
             if closing:
                 with self.lock:
-                    line.peer.receive_data(closing, time.monotonic())
+                    line.peer.feed(closing, time.monotonic())
                 line.hide_reaction = True
                 self._pump_line(line)
 

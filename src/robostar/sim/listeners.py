@@ -1,7 +1,7 @@
 """Serving the virtual controller over TCP and a pseudo-terminal, and :func:`serve`.
 
-The threaded :class:`~robostar.serving.threaded.PeerHost` gives every TCP connection and the
-pseudo-terminal an N1 session of its own on the controller (:class:`SimLines` wraps each in the
+The threaded :class:`~robostar.sim.host.PeerHost` gives every TCP connection and the
+pseudo-terminal an N1 session of its own on the controller (:class:`SimSessions` wraps each in the
 fault injector and line timing). :class:`SimServer` serves on a TCP port, :class:`PtyServer` on
 a pseudo-terminal; :func:`serve` builds whole simulators (controller, faults, line timing, state
 directory) and runs them until interrupted.
@@ -19,8 +19,10 @@ from pathlib import Path
 from types import FrameType
 from typing import TYPE_CHECKING, Self
 
+from robostar.controller_role.limits import MAX_CLIENTS
+from robostar.controller_role.session import ControllerSession
 from robostar.errors import UsageError
-from robostar.serving.address import (
+from robostar.listen import (
     DEFAULT_LISTEN,
     check_host,
     check_port,
@@ -28,10 +30,9 @@ from robostar.serving.address import (
     tcp_url,
     warn_remote,
 )
-from robostar.serving.session import Session
-from robostar.serving.threaded import DEFAULT_MAX_CLIENTS, PeerHost, SessionSource
 from robostar.sim.controller import VirtualController
 from robostar.sim.faults import FaultInjector, FaultSpec, parse_fault
+from robostar.sim.host import PeerHost, SessionSource
 from robostar.sim.pacing import PacedPeer
 from robostar.sim.store import StateStore
 from robostar.transport.peer import BytePeer
@@ -43,8 +44,8 @@ __all__ = [
     "DEFAULT_LISTEN",
     "PeerHost",
     "PtyServer",
-    "SimLines",
     "SimServer",
+    "SimSessions",
     "build_lines",
     "parse_listen",
     "serve",
@@ -57,7 +58,7 @@ _REMOTE_POWERS = (
 )
 
 
-class SimLines:
+class SimSessions:
     """A session per connection on one controller, each inside its own fault injector (seeded
     ``seed``) when there are ``faults`` and inside line timing when ``baud`` is given."""
 
@@ -80,7 +81,7 @@ class SimLines:
             PacedPeer(controller, baud=baud, turnaround=turnaround)  # refuses bad values now
         self.injectors: list[FaultInjector] = []
         """Every session's fault injector, in the order the sessions opened."""
-        self._sessions: dict[int, Session] = {}
+        self._sessions: dict[int, ControllerSession] = {}
 
     @property
     def executions(self) -> object:
@@ -115,15 +116,6 @@ class SimLines:
         return self.controller.shared_deadline()
 
 
-_READ_SIZE = 4096
-_MAX_PENDING_TCP = 1 << 20
-"""A TCP client that leaves this much unread is dropped, so it cannot stall the controller."""
-_MAX_PENDING_PTY = 1 << 16
-"""Bytes for a pseudo-terminal nobody reads are thrown away past this, as on an unplugged line."""
-_IDLE_WAKE = 0.2
-"""The loop looks at the peer at least this often, for changes made from other threads."""
-_MIN_WAIT = 0.0002
-"""Shortest sleep, so a peer whose deadline does not move cannot make the loop spin."""
 _JOIN_TIMEOUT = 10.0
 
 
@@ -143,7 +135,7 @@ class SimServer(PeerHost):
         *,
         allow_remote: bool = False,
         name: str = "sim",
-        max_clients: int = DEFAULT_MAX_CLIENTS,
+        max_clients: int = MAX_CLIENTS,
     ) -> None:
         check_host(host, allow_remote)
         check_port(port)
@@ -214,12 +206,12 @@ def build_lines(
     faults: Sequence[FaultSpec] = (),
     baud: int | None = None,
     turnaround: float = 0.0,
-) -> SimLines:
+) -> SimSessions:
     """Simulated controller ``index`` as :func:`serve` runs it: a virtual controller whose
     sessions run inside a fault injector when there are ``faults`` (seeded from
     ``config.seed + index``) and inside line timing when ``baud`` is given."""
     seed = None if config.seed is None else config.seed + index
-    return SimLines(
+    return SimSessions(
         VirtualController(config, store=store),
         faults=faults,
         seed=seed,
@@ -242,7 +234,7 @@ def serve(
     on_ready: Callable[[list[str]], None] | None = None,
     stop: threading.Event | None = None,
     control: str | None = None,
-    max_clients: int = DEFAULT_MAX_CLIENTS,
+    max_clients: int = MAX_CLIENTS,
 ) -> None:
     """Serve ``count`` virtual controllers until Ctrl-C, SIGTERM or ``stop`` is set.
 

@@ -14,11 +14,12 @@ import pytest
 from robostar import AsyncClient, ChannelStatus
 from robostar.commands.control import SetSpeed
 from robostar.commands.status import ReadStatus
+from robostar.controller_role import Backend, ControllerSession, Refusal, Request
+from robostar.controller_role.limits import IDLE_TIMEOUT, MAX_CLIENTS, HostLimits
 from robostar.errors import FunctionFailedError, OutcomeUnknownError, UsageError
 from robostar.protocol.fields import FLAG_UNSUPPORTED
 from robostar.serve import LineConfig, LineServer, ServeConfig
-from robostar.serving import AsyncHost, Backend, Refusal, Request, Session
-from robostar.serving.aio import IDLE_TIMEOUT, MAX_CLIENTS, HostLimits
+from robostar.serve.faces.n1.host import AsyncHost
 
 STATUS = (ChannelStatus(servo_on=True), ChannelStatus(), ChannelStatus(alarm=True))
 
@@ -34,7 +35,7 @@ class LateStatus(Backend):
             raise Refusal(f"{request.command.CODE} is not served here", FLAG_UNSUPPORTED)
         asyncio.get_running_loop().call_later(0.01, request.answer, STATUS)
 
-    def session_closed(self, session: Session) -> None:
+    def session_closed(self, session: ControllerSession) -> None:
         self.closed.append(session.name)
 
 
@@ -47,7 +48,7 @@ def test_idle_connections_are_closed_and_their_slots_served_again(
 ) -> None:
     async def main() -> None:
         backend = LateStatus()
-        factory = lambda name: Session(backend, name=name)  # noqa: E731
+        factory = lambda name: ControllerSession(backend, name=name)  # noqa: E731
         async with AsyncHost(factory, max_clients=2, idle_timeout=0.3) as host:
             address = await host.start()
             idle = [await asyncio.open_connection(*address) for _ in range(2)]
@@ -69,9 +70,9 @@ def test_a_connection_in_use_is_not_closed_for_idleness() -> None:
         backend = LateStatus()
         opened: list[str] = []
 
-        def factory(name: str) -> Session:
+        def factory(name: str) -> ControllerSession:
             opened.append(name)
-            return Session(backend, name=name)
+            return ControllerSession(backend, name=name)
 
         async with AsyncHost(factory, idle_timeout=0.3) as host:
             address = await host.start()
@@ -88,7 +89,7 @@ def test_a_connection_in_use_is_not_closed_for_idleness() -> None:
 def test_a_connection_past_the_limit_is_told_nothing_was_done() -> None:
     async def main() -> BaseException | None:
         backend = LateStatus()
-        factory = lambda name: Session(backend, name=name)  # noqa: E731
+        factory = lambda name: ControllerSession(backend, name=name)  # noqa: E731
         async with AsyncHost(factory, max_clients=1) as host:
             address = await host.start()
             _, holder = await asyncio.open_connection(*address)
@@ -111,7 +112,7 @@ def test_a_connection_past_the_limit_is_told_nothing_was_done() -> None:
 def test_a_silent_connection_past_the_limit_is_closed_within_a_second_or_two() -> None:
     async def main() -> None:
         backend = LateStatus()
-        factory = lambda name: Session(backend, name=name)  # noqa: E731
+        factory = lambda name: ControllerSession(backend, name=name)  # noqa: E731
         async with AsyncHost(factory, max_clients=1) as host:
             address = await host.start()
             _, holder = await asyncio.open_connection(*address)
@@ -128,7 +129,7 @@ def test_a_silent_connection_past_the_limit_is_closed_within_a_second_or_two() -
 def test_served_sockets_have_keepalive_with_short_probes() -> None:
     async def main() -> tuple[int, int, int, int]:
         backend = LateStatus()
-        async with AsyncHost(lambda name: Session(backend, name=name)) as host:
+        async with AsyncHost(lambda name: ControllerSession(backend, name=name)) as host:
             address = await host.start()
             _, writer = await asyncio.open_connection(*address)
             await asyncio.sleep(0.05)
@@ -199,4 +200,4 @@ def test_host_limits_from_a_config_table() -> None:
         with pytest.raises(UsageError, match=rf"^{key}: "):
             HostLimits.from_options(options)
     with pytest.raises(UsageError, match="idle_timeout"):
-        AsyncHost(lambda name: Session(LateStatus(), name=name), idle_timeout=0)
+        AsyncHost(lambda name: ControllerSession(LateStatus(), name=name), idle_timeout=0)

@@ -23,7 +23,7 @@ CHILD = textwrap.dedent(
     """
     import logging, os, resource, sys
     from robostar.sim import SimConfig, VirtualController
-    from robostar.sim.server import SimServer
+    from robostar.sim.listeners import SimServer
 
     logging.basicConfig(level=logging.WARNING, stream=sys.stderr)
     with SimServer(VirtualController(SimConfig()), max_clients=1000) as server:

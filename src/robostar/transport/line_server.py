@@ -16,7 +16,7 @@ import urllib.parse
 import urllib.request
 
 from robostar.errors import PortError
-from robostar.transport.aio import AsyncTcpTransport, LineProtocol
+from robostar.transport.aio import AsyncTcpTransport, ReaderProtocol
 from robostar.transport.tcp import TcpTransport
 from robostar.transport.url import netloc
 
@@ -102,7 +102,7 @@ class AsyncServeTransport(AsyncTcpTransport):
         self.line = line
         self.token = token
 
-    async def _connect(self) -> tuple[asyncio.BaseTransport, LineProtocol]:
+    async def _connect(self) -> tuple[asyncio.BaseTransport, ReaderProtocol]:
         self.host, self.port = await asyncio.to_thread(
             resolve_line, *self.api, self.line, self.token, self.connect_timeout
         )

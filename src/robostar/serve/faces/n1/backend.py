@@ -1,13 +1,13 @@
-"""N1 sessions in front of a line: the machinery of the N1 face (and of serve:// on demand).
+"""The N1 face's backend: each N1 session's requests handed to one line (queue, lease, model).
 
-Each connection is its own N1 session (robostar.serving). Reads are answered from the model when
-fresh; state changes go through the line's queue and lease: a connection takes the lease when it
-is free and keeps it while active (it expires after the lease's idle time, and is released when
-the connection closes). A request refused because another holds the lease answers flag 0x32, and
-KD then says who holds it. A state change whose outcome the line cannot tell
-(OutcomeUnknownError: it may have been carried out) ends its exchange with RST, as a controller
-does when it cannot answer, never with a failure flag: a host that retries on failure would
-send a write that may have run a second time.
+Each connection is its own N1 session (robostar.controller_role). Reads are answered from the model
+when fresh; state changes go through the line's queue and lease: a connection takes the lease when
+it is free and keeps it while active (it expires after the lease's idle time, and is released when
+the connection closes). A request refused because another holds the lease answers flag 0x32, and KD
+then says who holds it. A state change whose outcome the line cannot tell (OutcomeUnknownError: it
+may have been carried out) ends its exchange with RST, as a controller does when it cannot answer,
+never with a failure flag: a host that retries on failure would send a write that may have run a
+second time.
 
 A session's requests still waiting in the line's queue are withdrawn (nothing sent) when its
 connection closes or its host gives the exchange up (an RST, a new request): nobody would hear
@@ -19,29 +19,25 @@ from __future__ import annotations
 
 import asyncio
 import logging
-import ssl
-from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING
 
 from robostar.commands.files import UploadFile
 from robostar.commands.system import ReadLastError
+from robostar.controller_role import Backend, ControllerSession, Refusal, Request
 from robostar.errors import ControllerError, OutcomeUnknownError, RobostarError
 from robostar.serve.lease import LeaseHeldError, Who
 from robostar.serve.line import Line
-from robostar.serving import AsyncHost, Backend, Refusal, Request, Session
-from robostar.serving.address import warn_remote
-from robostar.serving.aio import HostLimits
 
 if TYPE_CHECKING:
-    from robostar.serve.server import LineServer
+    pass
 
-__all__ = ["LineBackend", "N1Face"]
+__all__ = ["N1Backend"]
 
 log = logging.getLogger("robostar.serve.n1")
 _FLAG_FAILED = 0x32
 
 
-class LineBackend(Backend):
+class N1Backend(Backend):
     """Hands each session's requests to one :class:`Line`."""
 
     def __init__(self, line: Line) -> None:
@@ -51,7 +47,7 @@ class LineBackend(Backend):
         """Requests whose host gave them up before their task ran (see exchange_abandoned)."""
 
     @staticmethod
-    def who(session: Session) -> Who:
+    def who(session: ControllerSession) -> Who:
         return Who(f"n1:{session.name}", "n1")
 
     def handle(self, request: Request) -> None:
@@ -114,11 +110,11 @@ class LineBackend(Backend):
         if request.live:
             request.refuse(reason, flag)
 
-    def session(self, name: str, timeout: float) -> Session:
+    def session(self, name: str, timeout: float) -> ControllerSession:
         """A new N1 session on this backend (one per connection)."""
-        return Session(self, name=name, timeout=timeout)
+        return ControllerSession(self, name=name, timeout=timeout)
 
-    def begin_upload(self, session: Session, command: UploadFile) -> None:
+    def begin_upload(self, session: ControllerSession, command: UploadFile) -> None:
         """Refuse an FB before its lines are sent when another consumer, another N1 session
         included, holds the lease."""
         holder = self.line.lease.holder
@@ -128,17 +124,17 @@ class LineBackend(Backend):
         self.line.record(command, self.who(session), f"refused: {error}")
         raise Refusal(str(error), _FLAG_FAILED)
 
-    def exchange_abandoned(self, session: Session, request: Request) -> None:
+    def exchange_abandoned(self, session: ControllerSession, request: Request) -> None:
         # nobody waits for its outcome now: a write of a host that moved on must not run,
         # whether it waits in the line's queue (withdrawn) or its task has not run yet
         self._abandoned.add(request)
         self._withdraw(session, "the host gave the exchange up (an RST or a new request)")
 
-    def session_closed(self, session: Session) -> None:
+    def session_closed(self, session: ControllerSession) -> None:
         self._withdraw(session, "its N1 connection closed")
         self.line.lease.release(self.who(session))
 
-    def _withdraw(self, session: Session, why: str) -> None:
+    def _withdraw(self, session: ControllerSession, why: str) -> None:
         """Take ``session``'s requests still waiting in the line's queue out of it."""
         withdrawn = self.line.withdraw(self.who(session), why)
         if withdrawn:
@@ -155,68 +151,3 @@ class LineBackend(Backend):
             task.cancel()
         if self._tasks:
             await asyncio.gather(*self._tasks, return_exceptions=True)
-
-
-class N1Face:
-    """One :class:`AsyncHost` per configured line."""
-
-    def __init__(
-        self,
-        server: LineServer,
-        listens: Mapping[str, tuple[str, int]],
-        allow_remote: bool,
-        *,
-        ssl_context: ssl.SSLContext | None = None,
-        allow_from: Sequence[object] | None = None,
-        limits: HostLimits | None = None,
-    ) -> None:
-        self.server = server
-        self.limits = limits or HostLimits()
-        self.listens = dict(listens)
-        self.allow_remote = allow_remote
-        self.ssl_context = ssl_context
-        self.allow_from = allow_from
-        self.hosts: dict[str, AsyncHost] = {}
-        self.backends: dict[str, LineBackend] = {}
-        self.addresses: dict[str, tuple[str, int]] = {}
-
-    async def start(self) -> None:
-        for name, listen in self.listens.items():
-            await self.add_line(name, listen)
-
-    async def add_line(self, name: str, listen: tuple[str, int]) -> tuple[str, int]:
-        """Serve line ``name`` on ``listen`` (once; the address it is served on)."""
-        if name in self.addresses:
-            return self.addresses[name]
-        host, port = listen
-        backend = LineBackend(self.server.lines[name])
-        timeout = self.server.lines[name].config.timeout
-
-        def factory(conn: str) -> Session:
-            return backend.session(conn, timeout)
-
-        n1 = AsyncHost(
-            factory,
-            name=f"n1 {name}",
-            max_clients=self.limits.max_clients,
-            idle_timeout=self.limits.idle_timeout,
-        )
-        self.addresses[name] = await n1.start(
-            host,
-            port,
-            allow_remote=self.allow_remote,
-            ssl_context=self.ssl_context,
-            allow_from=self.allow_from,
-        )
-        warn_remote(host, self.addresses[name][1], f"the N1 face of line {name}")
-        self.hosts[name] = n1
-        self.backends[name] = backend
-        log.info("n1 face: line %s on %s:%d", name, *self.addresses[name])
-        return self.addresses[name]
-
-    async def stop(self) -> None:
-        for name, n1 in self.hosts.items():
-            await n1.close()
-            await self.backends[name].drain()
-        self.hosts.clear()
-        self.addresses.clear()

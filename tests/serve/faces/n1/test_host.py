@@ -8,10 +8,11 @@ import pytest
 
 from robostar import AsyncClient, ChannelStatus
 from robostar.commands.status import ReadStatus
+from robostar.controller_role import Backend, ControllerSession, Refusal, Request
 from robostar.errors import FunctionFailedError, NotSupportedError
 from robostar.protocol.fields import FLAG_UNSUPPORTED
 from robostar.protocol.frame import encode_packet
-from robostar.serving import AsyncHost, Backend, Refusal, Request, Session
+from robostar.serve.faces.n1.host import AsyncHost
 
 STATUS = (ChannelStatus(servo_on=True), ChannelStatus(), ChannelStatus(alarm=True))
 
@@ -27,7 +28,7 @@ class LateStatus(Backend):
             raise Refusal(f"{request.command.CODE} is not served here", FLAG_UNSUPPORTED)
         asyncio.get_running_loop().call_later(0.01, request.answer, STATUS)
 
-    def session_closed(self, session: Session) -> None:
+    def session_closed(self, session: ControllerSession) -> None:
         self.closed.append(session.name)
 
 
@@ -37,7 +38,7 @@ def test_a_late_answer_reaches_each_of_many_clients() -> None:
 
 async def _many_clients() -> None:
     backend = LateStatus()
-    async with AsyncHost(lambda name: Session(backend, name=name), max_clients=4) as host:
+    async with AsyncHost(lambda name: ControllerSession(backend, name=name), max_clients=4) as host:
         address = await host.start()
         url = f"tcp://{address[0]}:{address[1]}"
         clients = [AsyncClient(url) for _ in range(3)]
@@ -57,10 +58,10 @@ def test_a_refusal_answers_its_flag_and_kd_reason() -> None:
 
 async def _refusal() -> None:
     backend = LateStatus()
-    sessions: list[Session] = []
+    sessions: list[ControllerSession] = []
 
-    def factory(name: str) -> Session:
-        sessions.append(Session(backend, name=name))
+    def factory(name: str) -> ControllerSession:
+        sessions.append(ControllerSession(backend, name=name))
         return sessions[-1]
 
     async with AsyncHost(factory) as host:
@@ -81,7 +82,7 @@ def test_connections_past_the_limit_are_refused_and_logged(
 
 async def _past_the_limit() -> None:
     backend = LateStatus()
-    async with AsyncHost(lambda name: Session(backend, name=name), max_clients=1) as host:
+    async with AsyncHost(lambda name: ControllerSession(backend, name=name), max_clients=1) as host:
         address = await host.start()
         _, first = await asyncio.open_connection(*address)
         reader, second = await asyncio.open_connection(*address)
@@ -105,7 +106,7 @@ def test_a_failing_session_is_dropped_alone(caplog: pytest.LogCaptureFixture) ->
 
 async def _failing_session() -> None:
     backend = BuggyStatus()
-    async with AsyncHost(lambda name: Session(backend, name=name)) as host:
+    async with AsyncHost(lambda name: ControllerSession(backend, name=name)) as host:
         address = await host.start()
         async with AsyncClient(f"tcp://{address[0]}:{address[1]}") as good:
             reader, writer = await asyncio.open_connection(*address)
