@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from robostar.client.aio import AsyncClient
+from robostar.client.exchange import Progress
 from robostar.commands.base import Command
 from robostar.commands.control import ReadSpeed
 from robostar.serve import LineConfig, LineServer, ServeConfig
@@ -71,13 +72,13 @@ class FaultySim:
                 await super().write(data)
 
         class Client(AsyncClient):
-            async def execute(self, command: Command[Any]) -> Any:
+            async def execute(self, command: Command[Any], progress: Progress | None = None) -> Any:
                 for fault in sim.before:
                     error = fault(command)
                     if error is not None:
                         raise error
                 sim.sent.append(command)
-                result = await super().execute(command)
+                result = await super().execute(command, progress)
                 for fault in sim.after:
                     error = fault(command)
                     if error is not None:

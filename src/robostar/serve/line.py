@@ -458,7 +458,9 @@ class Line:
         # a transfer reports its progress, so that a stop's victim learns how far it got (only a
         # transfer: a progress hook takes the client off its one-read fast path)
         task = asyncio.create_task(
-            client.execute(job.command, progress if isinstance(job.command, _TRANSFERS) else None)
+            client.execute(job.command, progress=progress)
+            if isinstance(job.command, _TRANSFERS)
+            else client.execute(job.command)
         )
         self._current_task = task
         try:
