@@ -3,7 +3,7 @@
 Every error branch of the pad's runner used to drop the running jog's context without closing
 it: a failed speed change left its keepalive sending BF (the robot jogged on with no key held),
 and a reversal whose BG answer was lost started the new jog while the pad believed nothing
-jogged, so releasing the key never stopped it. From review finding 2. The real runner on the
+jogged, so releasing the key never stopped it. The real runner on the
 built-in simulator; the failures are injected.
 """
 

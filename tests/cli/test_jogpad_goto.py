@@ -2,7 +2,7 @@
 
 The pad used to run the whole move inside its key loop: space ("stop now") and q did nothing,
 the screen was not redrawn, and keys typed meanwhile were read only after the move, so a jog key
-tapped during it jogged the robot by itself afterwards. From review finding 9.
+tapped during it jogged the robot by itself afterwards.
 """
 
 from __future__ import annotations

@@ -3,7 +3,7 @@
 The pad notices a released key in its screen loop; the BF keepalive runs on a thread of its
 own. Ctrl-S (XOFF: cbreak mode leaves IXON on) or a backed-up SSH session blocks the pad's
 screen write, and with it the loop: the jog's dead-man's switch (the pad's key-hold deadline)
-must stop the jog from the keepalive thread. From review finding 13.
+must stop the jog from the keepalive thread.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """The full-screen jog pad names its target in its title: the SIMULATOR / controller banner goes
 to stderr before the pad switches to the alternate screen, which hides it for as long as the
-pad runs, so a simulator's pad looked like a robot's. From review finding 3."""
+pad runs, so a simulator's pad looked like a robot's."""
 
 from __future__ import annotations
 

@@ -2,7 +2,7 @@
 
 It asked the session for its own client options (a 1 s timeout, reconnecting), which a session
 refuses once its client is open, as the shell's always is: the RuntimeError ended the whole shell
-with a traceback. From review finding 1.
+with a traceback.
 """
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
 """The full-screen monitor names its target in its title (the banner on stderr is hidden by the
-alternate screen). From review finding 3."""
+alternate screen)."""
 
 from __future__ import annotations
 
