@@ -1,5 +1,9 @@
 """The backup and the restore, as plans: what they ask of the line, and of the store.
 
+A plan touches no file itself: every file operation is a store call it asks its client to
+run (:func:`~robostar.client.plan.blocking`), in place for Client and in a worker thread for
+AsyncClient, so that a slow disk never holds an event loop.
+
 Neither direction loses data. A backup reads the controller's files into a temporary folder
 that the store swaps into place only when complete (see :mod:`robostar.backup.store`). A
 restore first validates the whole manifest (names, kinds, channels, paths inside the
@@ -19,6 +23,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from dataclasses import replace as with_changes  # `replace` is backup_plan's option
 from datetime import UTC, datetime
+from functools import partial
 
 from robostar.backup import store
 from robostar.backup.errors import RestoreIncompleteError, RestoreInterrupted, RestoreState
@@ -34,7 +39,7 @@ from robostar.backup.manifest import (
 from robostar.client.driver import upload_matches
 from robostar.client.exchange import Progress
 from robostar.client.files import download_job, download_points, point_lines
-from robostar.client.plan import Plan, call
+from robostar.client.plan import Blocking, Plan, blocking, call
 from robostar.commands.files import DeleteFile, DownloadFile, ListFiles, UploadFile
 from robostar.commands.identity import is_simulator_identity
 from robostar.commands.status import ReadInfo
@@ -74,15 +79,22 @@ def backup_plan(
     backup is intact). The returned manifest's ``folder`` is where the new backup is.
     """
     root = store.folder_path(folder)
-    previous = store.previous_backup(root, keep)
-    pending = store.start(root, keep)
+    previous = yield from blocking(store.previous_backup, root, keep)
+    # Cancelled while the store makes the temporary folder, the plan never learns its name:
+    # the client removes it (undo).
+    pending: store.PendingBackup = yield Blocking(partial(store.start, root, keep), store.discard)
     try:
         manifest = yield from _download_all(pending, progress, target, previous, replace)
-        store.put_in_place(pending, previous)
-    except BaseException:
+        yield from blocking(store.put_in_place, pending, previous)
+    except GeneratorExit:
+        # Closed by its driver, the plan can ask for nothing more: the one file operation
+        # done in place, so that no half-written backup is left.
         store.discard(pending)
         raise
-    store.tidy(pending)
+    except BaseException:
+        yield from blocking(store.discard, pending)
+        raise
+    yield from blocking(store.tidy, pending)
     return with_changes(manifest, folder=str(pending.final))
 
 
@@ -113,7 +125,7 @@ def _download_all(
             lines = point_lines(points)
         data = file_bytes(lines)
         relative = relative_path(channel_number, name)
-        store.write_file(pending, relative, data)
+        yield from blocking(store.write_file, pending, relative, data)
         digest = hashlib.sha256(data).hexdigest()
         files.append(
             BackupFile(
@@ -130,7 +142,7 @@ def _download_all(
         _report(progress, done, len(listing))
     created = datetime.now(UTC).isoformat(timespec="seconds")
     manifest = Manifest(created, info, tuple(files), target, _is_simulator(target, info))
-    store.write_manifest(pending, manifest)
+    yield from blocking(store.write_manifest, pending, manifest)
     return manifest
 
 
@@ -238,7 +250,7 @@ def restore_plan(
     restore again finishes it.
     """
     root = store.folder_path(folder)
-    manifest = store.read_manifest(root)
+    manifest = yield from blocking(store.read_manifest, root)
     validate_manifest(manifest)
     wanted = set(channels) if channels is not None else {1, 2, 3}
     if not wanted <= {1, 2, 3}:
@@ -254,7 +266,7 @@ def restore_plan(
     uploads = []
     for entry in entries:
         name = FileName.parse(entry.name)
-        data = store.read_file(root, relative_path(entry.channel, name))
+        data = yield from blocking(store.read_file, root, relative_path(entry.channel, name))
         uploads.append(_upload_of(entry, name, data))
 
     target_info = yield from call(ReadInfo())
