@@ -21,9 +21,9 @@ def test_the_backup_loop_bench_runs(monkeypatch: pytest.MonkeyPatch) -> None:
     perform = AsyncClient._perform
     results, rows = backup_loop.run(jobs=1, rounds=1)
     assert AsyncClient._perform is perform  # the old way is undone after its run
-    for mode in ("inline", "thread"):
+    for mode in ("inline", "thread", "reference"):
         for what in ("backup", "restore"):
             figures = results[mode][what]
             assert figures["store_operations"] > 0
             assert figures["gap_max_ms"] >= figures["gap_p50_ms"] > 0
-    assert len(rows) == 4
+    assert len(rows) == 6
