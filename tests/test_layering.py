@@ -24,6 +24,7 @@ LAYER = {
     "protocol": 2,
     "commands": 3,
     "client": 4,
+    "backup": 4,
     "sim": 4,
     "controller_role": 4,
     "listen": 1,

@@ -29,6 +29,13 @@ Every error robostar raises is a :class:`RobostarError`. The tree splits errors 
     └── JogInterruptedError                 a jog's keepalive failed; the robot has stopped
 
 Where a controller error has a KD reason, it is in ``reason``.
+
+Packages with errors of their own, beside the code that raises them:
+
+- ``robostar.backup``: BackupWriteError (RobostarError, OSError) a backup could not be written
+  on this computer; RestoreIncompleteError (RobostarError) a restore stopped part-way through
+  its writes; RestoreInterrupted (KeyboardInterrupt) Ctrl-C during them. The last two carry
+  a RestoreState: what is written and verified, in doubt and not touched.
 """
 
 from __future__ import annotations

@@ -173,7 +173,7 @@ def _refused(error: RobostarError) -> bool:
     refusal may leave an alarm that the message should name)?"""
     if isinstance(error, ControllerError):
         return True
-    backup = sys.modules.get("robostar.client.backup")  # loaded if a restore was running
+    backup = sys.modules.get("robostar.backup.errors")  # loaded if a restore was running
     return (
         backup is not None
         and isinstance(error, backup.RestoreIncompleteError)
@@ -196,7 +196,7 @@ def _is_local(error: OSError) -> bool:
 def _interrupted(interrupt: KeyboardInterrupt, session: ConsoleSession | None) -> Failure:
     """Ctrl-C as the console says it: what was on the line, what was stopped; for a restore,
     which files are written, in doubt and not touched."""
-    backup = sys.modules.get("robostar.client.backup")  # loaded if a restore was running
+    backup = sys.modules.get("robostar.backup.errors")  # loaded if a restore was running
     stopped = session.stopped_on_interrupt if session else ""
     if backup is not None and isinstance(interrupt, backup.RestoreInterrupted):
         state = interrupt.state

@@ -38,7 +38,7 @@ from robostar.errors import (
 from robostar.types import Alarm
 
 if TYPE_CHECKING:  # the console explains its first errors without loading the client
-    from robostar.client.backup import RestoreState
+    from robostar.backup.errors import RestoreState
 
 __all__ = [
     "EXIT_BAD_ARGUMENT",
@@ -116,7 +116,7 @@ def explain(
     of its requests change the controller (so no message claims that nothing was sent when
     something was)."""
     kind = type(error).__name__
-    backup = sys.modules.get("robostar.client.backup")  # loaded if the error can come from it
+    backup = sys.modules.get("robostar.backup.errors")  # loaded if the error can come from it
     if backup is not None and isinstance(error, backup.RestoreIncompleteError):
         return _half_restored(error, error.state, kind, port)
     if backup is not None and isinstance(error, backup.BackupWriteError):

@@ -22,11 +22,11 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from rich.table import Table
 from rich.text import Text
 
+from robostar.backup import RestoreDiff
 from robostar.cli.control import done
 from robostar.cli.options import common_options
 from robostar.cli.render import jsonable
 from robostar.cli.session import ConsoleSession, PlannedFrame, pass_session
-from robostar.client.backup import RestoreDiff
 from robostar.client.files import parse_name
 from robostar.commands import Command
 from robostar.commands.files import (

@@ -4,8 +4,8 @@ Both offer the same methods, written once (:mod:`robostar.client.surface`), over
 (:mod:`robostar.transport`); ``probe`` finds a controller's baud rate.
 """
 
+from robostar.backup import BackupFile, Manifest
 from robostar.client.aio import AsyncClient
-from robostar.client.backup import BackupFile, Manifest
 from robostar.client.exchange import Progress
 from robostar.client.jog import AsyncJog, Jog
 from robostar.client.probe import BAUD_RATES, ProbeAttempt, ProbeResult, probe

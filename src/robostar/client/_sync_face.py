@@ -9,8 +9,8 @@ import os
 from collections.abc import Callable, Mapping, Sequence
 from typing import cast
 
+from robostar.backup import Manifest, RestoreDiff
 from robostar.client import args
-from robostar.client.backup import Manifest, RestoreDiff
 from robostar.client.binding import SyncRunner
 from robostar.client.exchange import Progress
 from robostar.client.files import file_name
@@ -353,7 +353,7 @@ class SyncOperations(SyncRunner):
         """Save every JOB and PNT file of every channel to ``folder``, with manifest.json
         (swapped into place only when complete; ``keep=N``: timestamped generations;
         ``replace``: even a backup of another target, see
-        :func:`robostar.client.backup.backup_plan`)."""
+        :func:`robostar.backup.backup_plan`)."""
         return self._run(
             Operations.backup(
                 cast(Operations, self), folder, progress=progress, keep=keep, replace=replace
@@ -374,7 +374,7 @@ class SyncOperations(SyncRunner):
     ) -> Manifest:
         """Upload what is new or changed from a :meth:`backup` after a preflight that writes
         nothing on any failure, then read each back and compare (see
-        :func:`robostar.client.backup.restore_plan`)."""
+        :func:`robostar.backup.restore_plan`)."""
         return self._run(
             Operations.restore(
                 cast(Operations, self),

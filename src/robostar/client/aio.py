@@ -16,7 +16,7 @@ from robostar.client.driver import NOT_DECODED, command_plan, decoded_at_once, n
 from robostar.client.exchange import Exchange, Progress
 from robostar.client.jog import AsyncJog, jog_start
 from robostar.client.locks import AsyncPriorityLock
-from robostar.client.plan import Call, Effect, Plan, run_plan_async
+from robostar.client.plan import Blocking, Call, Effect, Plan, run_blocking, run_plan_async
 from robostar.client.trace import TraceTarget
 from robostar.commands.base import Command
 from robostar.errors import PortError, RobostarError, UsageError
@@ -112,6 +112,8 @@ class AsyncClient(AsyncOperations, ClientBase):
     async def _perform(self, effect: Effect) -> object:
         if isinstance(effect, Call):
             return await self._call(effect.command, effect.progress)
+        if isinstance(effect, Blocking):
+            return await run_blocking(effect)  # in a worker thread: the loop runs on
         await asyncio.sleep(effect.seconds)
         return None
 

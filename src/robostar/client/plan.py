@@ -1,25 +1,42 @@
 """Plans: client operations written once as generators, run by a blocking or an asyncio driver.
 
-A plan yields effects - :class:`Call` (run a command, get its result) or :class:`Sleep` - and
-gets each effect's result sent back (or its error thrown in, KeyboardInterrupt and
-cancellation included, so that a plan can end an exchange cleanly). The sync client performs effects
-by blocking, the asyncio client by awaiting; the plan itself never knows which.
+A plan yields effects - :class:`Call` (run a command, get its result), :class:`Sleep`, or
+:class:`Blocking` (run a function that blocks, such as file work) - and gets each effect's
+result sent back (or its error thrown in, KeyboardInterrupt and cancellation included, so that
+a plan can end an exchange cleanly). The sync client performs effects by blocking, the asyncio
+client by awaiting (a Blocking function in a worker thread, :func:`run_blocking`); the plan
+itself never knows which.
 :func:`run_plan` and :func:`run_plan_async` are those two loops, for any generator and effect.
 """
 
 from __future__ import annotations
 
+import asyncio
+import functools
 from collections.abc import Awaitable, Callable, Generator
 from dataclasses import dataclass
-from typing import Any, Generic, TypeVar
+from typing import Any, Generic, ParamSpec, TypeVar
 
 from robostar.client.exchange import Progress
 from robostar.commands.base import Command
 
-__all__ = ["Call", "Effect", "Plan", "Sleep", "call", "run_plan", "run_plan_async", "sleep"]
+__all__ = [
+    "Blocking",
+    "Call",
+    "Effect",
+    "Plan",
+    "Sleep",
+    "blocking",
+    "call",
+    "run_blocking",
+    "run_plan",
+    "run_plan_async",
+    "sleep",
+]
 
 R = TypeVar("R")
 E = TypeVar("E")
+P = ParamSpec("P")
 
 
 @dataclass(frozen=True, slots=True)
@@ -35,7 +52,22 @@ class Sleep:
     seconds: float
 
 
-Effect = Call[Any] | Sleep
+@dataclass(frozen=True, slots=True)
+class Blocking(Generic[R]):
+    """Run ``function()``, which blocks (file work on this computer); its result is sent.
+
+    The sync client calls it in place; the asyncio client in a worker thread, so that the
+    event loop runs on meanwhile. A thread cannot be stopped: when the asyncio task is
+    cancelled meanwhile, the function still runs to its end, ``undo(result)`` (if given)
+    takes back what it made, which the plan is never told of, and only then is the
+    cancellation thrown into the plan.
+    """
+
+    function: Callable[[], R]
+    undo: Callable[[R], object] | None = None
+
+
+Effect = Call[Any] | Sleep | Blocking[Any]
 Plan = Generator[Effect, Any, R]
 
 
@@ -47,6 +79,27 @@ def call(command: Command[R], progress: Progress | None = None) -> Plan[R]:
 
 def sleep(seconds: float) -> Plan[None]:
     yield Sleep(seconds)
+
+
+def blocking(function: Callable[P, R], /, *args: P.args, **kwargs: P.kwargs) -> Plan[R]:
+    """``result = yield from blocking(function, *args)``: run a function that blocks (file
+    work) the way the client runs it, never on an event loop."""
+    result: R = yield Blocking(functools.partial(function, *args, **kwargs))
+    return result
+
+
+async def run_blocking(effect: Blocking[R]) -> R:
+    """The asyncio client's way to perform a :class:`Blocking` effect: in a worker thread,
+    waited for to its end even when the task is cancelled meanwhile."""
+    work = asyncio.ensure_future(asyncio.to_thread(effect.function))
+    try:
+        return await asyncio.shield(work)
+    except asyncio.CancelledError:
+        # The plan cleans up once it sees the cancellation: after the work, not beside it.
+        await asyncio.wait([work])
+        if effect.undo is not None and not work.cancelled() and work.exception() is None:
+            await asyncio.to_thread(effect.undo, work.result())
+        raise
 
 
 class _Reply:

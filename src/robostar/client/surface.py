@@ -13,8 +13,8 @@ import time
 from collections.abc import Callable, Mapping, Sequence
 from typing import TypeVar
 
+from robostar.backup import Manifest, RestoreDiff, backup_plan, restore_plan
 from robostar.client import args
-from robostar.client.backup import Manifest, RestoreDiff, backup_plan, restore_plan
 from robostar.client.binding import operation
 from robostar.client.exchange import Progress
 from robostar.client.files import download_job, download_points, file_name, point_lines, upload
@@ -457,7 +457,7 @@ class Operations(PlanHelpers):
         """Save every JOB and PNT file of every channel to ``folder``, with manifest.json
         (swapped into place only when complete; ``keep=N``: timestamped generations;
         ``replace``: even a backup of another target, see
-        :func:`robostar.client.backup.backup_plan`)."""
+        :func:`robostar.backup.backup_plan`)."""
         target = getattr(self, "url", None)  # the client's URL, recorded in the manifest
         return (yield from backup_plan(folder, progress, keep, target=target, replace=replace))
 
@@ -476,7 +476,7 @@ class Operations(PlanHelpers):
     ) -> Plan[Manifest]:
         """Upload what is new or changed from a :meth:`backup` after a preflight that writes
         nothing on any failure, then read each back and compare (see
-        :func:`robostar.client.backup.restore_plan`)."""
+        :func:`robostar.backup.restore_plan`)."""
         return (
             yield from restore_plan(
                 folder,

@@ -15,7 +15,7 @@ from robostar.client.driver import NOT_DECODED, command_plan, decoded_at_once
 from robostar.client.exchange import Exchange, Progress
 from robostar.client.jog import Jog, jog_start
 from robostar.client.locks import PriorityLock
-from robostar.client.plan import Call, Effect, Plan, run_plan
+from robostar.client.plan import Blocking, Call, Effect, Plan, run_plan
 from robostar.client.trace import TraceTarget
 from robostar.commands.base import Command
 from robostar.errors import PortError, RobostarError, UsageError
@@ -120,6 +120,8 @@ class Client(SyncOperations, ClientBase):
     def _perform(self, effect: Effect) -> object:
         if isinstance(effect, Call):
             return self._call(effect.command, effect.progress)
+        if isinstance(effect, Blocking):
+            return effect.function()
         time.sleep(effect.seconds)
         return None
 

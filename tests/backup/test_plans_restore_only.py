@@ -1,5 +1,6 @@
-"""`restore --only PATTERN` refuses a pattern that matches no file of the backup (a typo
-restored nothing and said "Restored 0 file change(s)", exit 0)."""
+"""`restore --only PATTERN` refuses, before anything is sent, a pattern that matches no file
+of the backup (nor, with --delete-extra, of the controller), rather than restoring nothing and
+reporting success; a pattern that matches still restores."""
 
 from __future__ import annotations
 
