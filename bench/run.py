@@ -28,7 +28,7 @@ if __package__ in (None, ""):
 
 import psutil
 
-from bench import cell, host_cost, jog, loopback, memory, plots, wire
+from bench import backup_loop, cell, host_cost, jog, loopback, memory, plots, wire
 from bench.measure import Row, format_table
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -47,6 +47,7 @@ def _items(quick: bool) -> dict[str, Item]:
             "jog": lambda: jog.run(seconds=10.0),
             "cell": lambda: cell.run(sizes=(1, 8, 32), seconds=5.0),
             "memory": lambda: memory.run(exchanges=10_000),
+            "backup_loop": lambda: backup_loop.run(jobs=2, rounds=1),
         }
     return {
         "host": lambda: host_cost.run(),
@@ -55,6 +56,7 @@ def _items(quick: bool) -> dict[str, Item]:
         "jog": lambda: jog.run(seconds=60.0),
         "cell": lambda: cell.run(sizes=(1, 8, 32, 128, 256), seconds=20.0),
         "memory": lambda: memory.run(exchanges=1_000_000),  # issue #18: RSS flat over 1e6
+        "backup_loop": lambda: backup_loop.run(),
     }
 
 
