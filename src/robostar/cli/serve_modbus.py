@@ -85,6 +85,10 @@ def _range(text: str | None, option: str) -> tuple[int, int]:
     first, sep, count = text.partition(":")
     if not sep or not first.isdigit() or not count.isdigit():
         raise UsageError(f"{option} {text!r}: expected FIRST:COUNT, e.g. 0:16")
+    from robostar.serve.faces.modbus.layout import MAX_GLOBALS
+
+    if int(count) > MAX_GLOBALS:
+        raise UsageError(f"{option} {text!r}: the map holds {MAX_GLOBALS} at most")
     return int(first), int(count)
 
 
