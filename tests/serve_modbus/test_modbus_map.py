@@ -7,12 +7,14 @@ from __future__ import annotations
 import csv
 import io
 from collections import defaultdict
+from pathlib import Path
 
 import pytest
 from click.testing import CliRunner
 
 from robostar.cli.app import cli
 from robostar.cli.serve import build_config
+from robostar.cli.serve_modbus import render_map
 from robostar.errors import UsageError
 from robostar.serve.faces.modbus.layout import (
     DI,
@@ -94,3 +96,13 @@ def test_the_modbus_option_names_a_line_and_its_port() -> None:
     assert config.faces["modbus"] == {"lines": {"cell1": "127.0.0.1:5020"}}
     with pytest.raises(UsageError, match="--modbus"):
         build_config(None, ("cell1=sim://",), (), {}, False, None, None, True, ("cell1",))
+
+
+def test_the_docs_show_the_map_as_the_cli_prints_it() -> None:
+    docs = Path(__file__).parents[2] / "docs" / "modbus.md"
+    text = docs.read_text(encoding="utf-8")
+    marker = "This section is that command's\noutput (a test keeps it so).\n\n"
+    assert marker in text
+    assert text.split(marker, 1)[1] == render_map("markdown"), (
+        "docs/modbus.md's map is out of date: rerun `robostar serve modbus-map --format markdown`"
+    )

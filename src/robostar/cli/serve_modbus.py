@@ -73,9 +73,10 @@ def render_map(fmt: str, ints: tuple[int, int] = (0, 0), floats: tuple[int, int]
         writer.writerows(rows)
         return buffer.getvalue()
     render = _markdown if fmt == "markdown" else _table
-    parts = [f"Modbus register map, version {MAP_VERSION}", render(_COLUMNS, rows)]
+    heading = "### " if fmt == "markdown" else ""
+    parts = [f"{heading}Modbus register map, version {MAP_VERSION}", render(_COLUMNS, rows)]
     for title, codes in _codes():
-        parts += [title, render(("value", "meaning"), codes)]
+        parts += [heading + title, render(("value", "meaning"), codes)]
     return "\n\n".join(parts) + "\n"
 
 
