@@ -22,7 +22,7 @@ from robostar.commands.variables import ReadGlobalFloat, ReadGlobalInt
 from robostar.errors import RobostarError
 from robostar.listen import warn_remote
 from robostar.serve.faces.modbus.handshake import CODES
-from robostar.serve.faces.modbus.image import ImageInputs, build_image
+from robostar.serve.faces.modbus.image import Image, ImageInputs, build_image
 from robostar.serve.faces.modbus.layout import HR
 from robostar.serve.faces.modbus.runner import CommandRunner, JobTable
 from robostar.serve.faces.modbus.server import RegisterServer
@@ -55,9 +55,36 @@ class LinePort:
         self.global_ints: dict[int, Sample] = {}
         self.global_floats: dict[int, Sample] = {}
         self._job_list_read: dict[int, float] = {}
+        self._changes = line.model.subscribe(maxsize=256)
+        """Only as a signal: a quality changed (marks and age-outs do not count as updates)."""
+        self._globals_read = 0
+        self._image: Image | None = None
+        self._key: tuple[object, ...] = ()
+
+    def close(self) -> None:
+        self._changes.close()
 
     # -- RegisterSource --------------------------------------------------------------------
-    def refresh(self, input_registers: list[int], discrete_inputs: list[bool]) -> None:
+    def image(self) -> Image:
+        """The map as of now. Rebuilt only when something it shows may have changed (a value
+        stored, a quality changed, a global read, the line up or down, a JOB list read);
+        otherwise only the ages move: a PLC's many reads between two polls cost little."""
+        key = (self.line.model.updates, self.line.up, self._globals_read, self._jobs_read())
+        changed = self._changes.pending() > 0
+        while self._changes.get_nowait() is not None:
+            pass
+        now = time.time()
+        if self._image is None or changed or key != self._key:
+            self._image = self._build(now)
+            self._key = key
+        else:
+            self._image.set_ages(now)
+        return self._image
+
+    def _jobs_read(self) -> int:
+        return sum(len(numbers) + 1 for numbers in self.jobs.numbers.values())
+
+    def _build(self, now: float) -> Image:
         inputs = ImageInputs(
             samples=self.line.model.snapshot(),
             online=self.line.up,
@@ -69,9 +96,7 @@ class LinePort:
             global_floats=self.global_floats,
             job_numbers=self.jobs.numbers,
         )
-        ir, di = build_image(inputs, time.time())
-        input_registers[:] = ir
-        discrete_inputs[:] = di
+        return build_image(inputs, now)
 
     def results(self) -> list[int]:
         return list(self.runner.registers)
@@ -115,8 +140,10 @@ class LinePort:
             old = store.get(index)
             if old is not None:
                 store[index] = Sample(old.value, old.at, Quality.STALE)
+                self._globals_read += 1
             return
         store[index] = Sample(value, time.time())
+        self._globals_read += 1
 
     async def _read_job_lists(self) -> None:
         now = time.monotonic()
@@ -176,6 +203,7 @@ class ModbusFace:
                 await task
         for line_port in self.ports.values():
             await line_port.runner.stop()
+            line_port.close()
         self._tasks.clear()
         self.servers.clear()
         self.ports.clear()

@@ -29,7 +29,7 @@ from robostar.serve.faces.modbus.layout import (
 from robostar.serve.model import Quality as ModelQuality
 from robostar.serve.model import Sample
 
-__all__ = ["AGE_NONE", "ImageInputs", "build_image", "float_words", "text_words"]
+__all__ = ["AGE_NONE", "Image", "ImageInputs", "build_image", "float_words", "text_words"]
 
 AGE_NONE = 0xFFFF
 """The age register of a block with no value (and the ceiling of every age, 65.535 s)."""
@@ -80,21 +80,36 @@ _QUALITY = {
 
 
 def _health(
-    samples: list[Sample | None], in_use: bool, online: bool, now: float
-) -> tuple[Quality, int]:
+    samples: list[Sample | None], in_use: bool, online: bool
+) -> tuple[Quality, float | None]:
     """A block's quality (the worst of its values; never good while the line is down) and
-    age (of its oldest value), ms."""
+    the time its oldest value was read (None: no value)."""
     if not in_use:
-        return Quality.NOT_IN_USE, AGE_NONE
+        return Quality.NOT_IN_USE, None
     if not samples or any(s is None for s in samples):
-        return Quality.NO_VALUE, AGE_NONE
+        return Quality.NO_VALUE, None
     present = [s for s in samples if s is not None]
     quality = max((_QUALITY[s.quality] for s in present), default=Quality.GOOD)
     if not online:
         quality = max(quality, Quality.LINE_DOWN)
-    oldest = min(s.at for s in present)
-    age = int(max(0.0, now - oldest) * 1000)
-    return quality, min(age, AGE_NONE)
+    return quality, min(s.at for s in present)
+
+
+@dataclass
+class Image:
+    """The tables' values; only the age registers change with time (:meth:`set_ages`)."""
+
+    input_registers: list[int]
+    discrete_inputs: list[bool]
+    read_at: list[float | None]
+    """By block: when its oldest value was read (``time.time()``), None without a value."""
+
+    def set_ages(self, now: float) -> None:
+        """Write every block's age as of ``now`` (ms, at most :data:`AGE_NONE`)."""
+        ir = self.input_registers
+        for index, at in enumerate(self.read_at):
+            age = AGE_NONE if at is None else min(int(max(0.0, now - at) * 1000), AGE_NONE)
+            ir[IR.HEALTH + 2 * index + 1] = age
 
 
 def _block_samples(block: Block, inputs: ImageInputs) -> tuple[list[Sample | None], bool]:
@@ -117,7 +132,7 @@ def _value(inputs: ImageInputs, key: str) -> object:
     return None if sample is None else sample.value
 
 
-def build_image(inputs: ImageInputs, now: float) -> tuple[list[int], list[bool]]:
+def build_image(inputs: ImageInputs, now: float) -> Image:
     """The input registers (IR.SIZE of them) and discrete inputs (DI.SIZE) as of ``now``."""
     ir = [0] * IR.SIZE
     di = [False] * DI.SIZE
@@ -130,11 +145,12 @@ def build_image(inputs: ImageInputs, now: float) -> tuple[list[int], list[bool]]
     di[DI.ONLINE] = inputs.online
     not_good = 0
     good: dict[str, bool] = {}
+    read_at: list[float | None] = []
     for block in BLOCKS:
         samples, in_use = _block_samples(block, inputs)
-        quality, age = _health(samples, in_use, inputs.online, now)
+        quality, at = _health(samples, in_use, inputs.online)
         ir[IR.HEALTH + 2 * block.index] = int(quality)
-        ir[IR.HEALTH + 2 * block.index + 1] = age
+        read_at.append(at)
         good[block.name] = quality is Quality.GOOD
         if quality not in (Quality.GOOD, Quality.NOT_IN_USE):
             not_good |= 1 << block.index
@@ -170,7 +186,9 @@ def build_image(inputs: ImageInputs, now: float) -> tuple[list[int], list[bool]]
         if sample is not None:
             words = float_words(float(sample.value))
             ir[IR.GLOBAL_FLOATS + 2 * n : IR.GLOBAL_FLOATS + 2 * n + 2] = words
-    return ir, di
+    image = Image(ir, di, read_at)
+    image.set_ages(now)
+    return image
 
 
 def _channel(

@@ -21,6 +21,7 @@ from pymodbus.simulator import DataType, SimData, SimDevice
 
 from robostar.errors import UsageError
 from robostar.listen import check_host
+from robostar.serve.faces.modbus.image import Image
 from robostar.serve.faces.modbus.layout import DI, HR, IR
 from robostar.transport.url import netloc
 
@@ -37,8 +38,8 @@ _COILS = frozenset((1, 5, 15))
 class RegisterSource(Protocol):
     """What a line's server asks of the face."""
 
-    def refresh(self, input_registers: list[int], discrete_inputs: list[bool]) -> None:
-        """Fill the tables (IR.SIZE registers, DI.SIZE bits) with the map's values as of now."""
+    def image(self) -> Image:
+        """The input registers and discrete inputs as of now."""
 
     def results(self) -> list[int]:
         """The handshake's read-only registers, HR.DONE_SEQUENCE to HR.SIZE."""
@@ -71,8 +72,8 @@ class RegisterServer:
         self.writes = writes
         self.address: tuple[str, int] | None = None
         self._server: ModbusTcpServer | None = None
-        self._ir = [0] * IR.SIZE
-        self._di = [False] * DI.SIZE
+        self._packed: tuple[list[bool], list[int]] | None = None
+        """The discrete inputs last packed, and their packing (they change with the model)."""
 
     def device(self) -> SimDevice:
         """The tables: coils (present, never answered), discrete inputs, holding registers
@@ -129,11 +130,12 @@ class RegisterServer:
         if function_code in _COILS:
             return ExcCodes.ILLEGAL_ADDRESS
         if function_code == _READ_IR:
-            self.source.refresh(self._ir, self._di)
-            registers[: IR.SIZE] = self._ir
+            registers[: IR.SIZE] = self.source.image().input_registers
         elif function_code == _READ_DI:
-            self.source.refresh(self._ir, self._di)
-            registers[: DI.SIZE // 16] = _pack_bits(self._di)
+            bits = self.source.image().discrete_inputs
+            if self._packed is None or self._packed[0] is not bits:
+                self._packed = (bits, _pack_bits(bits))
+            registers[: DI.SIZE // 16] = self._packed[1]
         elif function_code in _HOLDING:
             registers[HR.WRITABLE : HR.SIZE] = self.source.results()
             if values:
