@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import asyncio
 import json
+import struct
 from pathlib import Path
 
 from robostar.commands.files import UploadFile
@@ -142,5 +143,24 @@ def test_a_stop_needs_no_lease(tmp_path: Path) -> None:
             result = await c.command(STOP_JOB, 1, sequence=2)
             assert _outcome(result) is Outcome.DONE, _text(result)
             assert not _running(c)
+
+    asyncio.run(main())
+
+
+def test_globals_outputs_and_speed_are_written_by_handshake(tmp_path: Path) -> None:
+    async def main() -> None:
+        allow = ["global_int", "global_float", "output", "speed"]
+        async with cell(tmp_path, commands={"enabled": True, "allow": allow}) as c:
+            high, low = struct.unpack(">HH", struct.pack(">i", -70000))
+            assert _outcome(await c.command(9, 12, high, low, sequence=1)) is Outcome.DONE
+            high, low = struct.unpack(">HH", struct.pack(">f", 2.5))
+            assert _outcome(await c.command(10, 3, high, low, sequence=2)) is Outcome.DONE
+            assert _outcome(await c.command(8, 1, 4, 1, sequence=3)) is Outcome.DONE
+            assert _outcome(await c.command(7, 1, 650, sequence=4)) is Outcome.DONE
+            model = c.sim.model
+            assert model.ints[12] == -70000 and model.floats[3] == 2.5
+            assert model.outputs[1][4] is True
+            assert c.line.model.get("ch1/speed") is not None
+            await until(lambda: c.line.model.get("ch1/speed").value == 650)  # type: ignore[union-attr]
 
     asyncio.run(main())

@@ -106,3 +106,23 @@ def test_the_docs_show_the_map_as_the_cli_prints_it() -> None:
     assert text.split(marker, 1)[1] == render_map("markdown"), (
         "docs/modbus.md's map is out of date: rerun `robostar serve modbus-map --format markdown`"
     )
+
+
+def test_serve_check_takes_a_modbus_section_and_names_a_bad_key(tmp_path: Path) -> None:
+    good = tmp_path / "serve.toml"
+    good.write_text(
+        '[lines.cell1]\nurl = "sim://"\n\n[modbus]\nlines = { cell1 = "127.0.0.1:5020" }\n'
+        '[modbus.commands]\nenabled = true\nallow = ["run_job", "stop_job"]\n',
+        encoding="utf-8",
+    )
+    result = CliRunner().invoke(cli, ["serve", "--check", str(good)])
+    assert result.exit_code == 0, result.output
+    assert "face modbus" in result.output
+    bad = tmp_path / "bad.toml"
+    bad.write_text(
+        '[lines.cell1]\nurl = "sim://"\n\n[modbus]\nlines = { cell1 = "127.0.0.1:5020" }\n'
+        '[modbus.commands]\nenabled = true\nallow = ["launch"]\n',
+        encoding="utf-8",
+    )
+    result = CliRunner().invoke(cli, ["serve", "--check", str(bad)])
+    assert result.exit_code != 0 and "modbus.commands.allow" in result.output
