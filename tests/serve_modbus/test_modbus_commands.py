@@ -164,3 +164,25 @@ def test_globals_outputs_and_speed_are_written_by_handshake(tmp_path: Path) -> N
             await until(lambda: c.line.model.get("ch1/speed").value == 650)  # type: ignore[union-attr]
 
     asyncio.run(main())
+
+
+def test_a_command_while_another_runs_is_busy_but_a_stop_runs(tmp_path: Path) -> None:
+    async def main() -> None:
+        async with cell(tmp_path, commands={"enabled": True, "allow": ALL}) as c:
+            c.sim.model.channel(1).origin = True
+            await c.write_block([SELECT_JOB, 1, 1, 0, 0, 0, 0, 0, 0, 1])  # DC: 0.5 s to load
+            result = await c.command(SERVO, 1, 1, sequence=2)
+            assert _outcome(result) is Outcome.REFUSED
+            assert _reason(result) is Reason.BUSY
+            result = await c.command(STOP_JOB, 1, sequence=3)
+            assert _outcome(result) is Outcome.DONE, _text(result)
+            await until(lambda: str(c.sim.model.channel(1).job_name) == "DEMO.JOB")
+            assert c.sim.controller.executions.get("DB", 0) == 0
+            records = [json.loads(line) for line in c.audit.read_text().splitlines()]
+            outcomes = {
+                r["what"].split("(")[0]: r["outcome"] for r in records if r["face"] == "modbus"
+            }
+            assert outcomes["SelectJob"] == "ok" and outcomes["StopJob"] == "ok"
+            assert outcomes["Servo"].startswith("refused: busy")
+
+    asyncio.run(main())
