@@ -183,6 +183,6 @@ def test_a_command_while_another_runs_is_busy_but_a_stop_runs(tmp_path: Path) ->
                 r["what"].split("(")[0]: r["outcome"] for r in records if r["face"] == "modbus"
             }
             assert outcomes["SelectJob"] == "ok" and outcomes["StopJob"] == "ok"
-            assert outcomes["Servo"].startswith("refused: busy")
+            assert outcomes["Servo"] == "refused: busy: sequence 1 is still running"
 
     asyncio.run(main())

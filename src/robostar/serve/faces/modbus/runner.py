@@ -71,6 +71,7 @@ class CommandRunner:
         self.registers = [0] * (HR.SIZE - HR.WRITABLE)
         """HR.WRITABLE .. HR.SIZE: done sequence, outcome, flag, reason, accepted, text."""
         self._running: asyncio.Task[None] | None = None
+        self._running_sequence = 0
         self.tasks: set[asyncio.Task[None]] = set()
 
     def _set(self, address: int, value: int) -> None:
@@ -97,7 +98,7 @@ class CommandRunner:
             self._refuse(sequence, _what(request), Reason.NOT_ALLOWED, text)
             return
         if not request.is_stop and self._running is not None and not self._running.done():
-            text = f"busy: sequence {self.registers[0]} or before is still running"
+            text = f"busy: sequence {self._running_sequence} is still running"
             self._refuse(sequence, _what(request), Reason.BUSY, text)
             return
         task = asyncio.get_running_loop().create_task(
@@ -106,7 +107,7 @@ class CommandRunner:
         self.tasks.add(task)
         task.add_done_callback(self.tasks.discard)
         if not request.is_stop:
-            self._running = task
+            self._running, self._running_sequence = task, sequence
 
     def _refuse(self, sequence: int, what: str, reason: Reason, text: str) -> None:
         self.line.record(what, self.who, f"refused: {text}")
