@@ -6,8 +6,9 @@ I/O, the globals, the discrete inputs and the handshake's results, 8 requests a 
 
 1. the answer time of each request (send to answer) and of each whole cycle, p50 / p99 / max,
    and the share of the cycles that started on time;
-2. the line's exchanges per second over the same time without the PLC, then with it: reads
-   come from the model, so the PLC's cycle must not change the line's load;
+2. the line's exchanges per second, by command, over the same time without the PLC, then with
+   it: reads come from the model, so the PLC's cycle must not change the line's load (the
+   poller's slow reads come once a second, so a window holds one more or one fewer of them);
 3. for reference, the same PLC loop against pymodbus's own server (``bench.modbus_ref``: a
    plain datastore, each request reading ``min(count, 99)`` holding registers): what pymodbus
    and this machine cost without the face.
@@ -25,12 +26,17 @@ import logging
 import subprocess
 import sys
 import time
-from typing import Any
+from collections import Counter
+from typing import Any, TypeVar
 
 from bench.measure import percentile
+from robostar.client.aio import AsyncClient
+from robostar.client.exchange import Progress
+from robostar.commands.base import Command
 from robostar.serve import LineConfig, LineServer, ServeConfig
 from robostar.serve.faces.modbus.layout import BLOCKS, DI, HR, IR
 
+R = TypeVar("R")
 GLOBALS = {"int": {"first": 0, "count": 16}, "float": {"first": 0, "count": 8}}
 """The globals the bench's map shows (the face reads them once a second)."""
 
@@ -115,11 +121,27 @@ def _reference(seconds: float, cycle: float) -> dict[str, Any]:
         server.wait()
 
 
-async def _exchanges_per_second(server: LineServer, seconds: float) -> float:
-    line = server.line("cell1")
-    before, started = line.health.exchanges, time.perf_counter()
+_SENT: Counter[str] = Counter()
+"""Exchanges the line ran, by command code."""
+
+
+class _CountingClient(AsyncClient):
+    async def execute(self, command: Command[R], progress: Progress | None = None) -> R:
+        _SENT[command.CODE] += 1
+        return await super().execute(command, progress)
+
+
+def _client(config: LineConfig) -> AsyncClient:
+    return _CountingClient(config.url, timeout=config.timeout)
+
+
+async def _exchanges_per_second(seconds: float) -> dict[str, float]:
+    """The line's exchanges per second over ``seconds``, by command code."""
+    _SENT.clear()
+    started = time.perf_counter()
     await asyncio.sleep(seconds)
-    return (line.health.exchanges - before) / (time.perf_counter() - started)
+    elapsed = time.perf_counter() - started
+    return {code: count / elapsed for code, count in sorted(_SENT.items())}
 
 
 async def _run(seconds: float, cycle: float) -> dict[str, Any]:
@@ -127,10 +149,10 @@ async def _run(seconds: float, cycle: float) -> dict[str, Any]:
         lines=(LineConfig("cell1", "sim://"),),
         faces={"modbus": {"lines": {"cell1": "127.0.0.1:0"}, "globals": GLOBALS}},
     )
-    async with LineServer(config) as server:
+    async with LineServer(config, client_factory=_client) as server:
         await server.line("cell1").wait_polled()
         await asyncio.sleep(1.0)  # the globals read once, a slow cycle done
-        quiet = await _exchanges_per_second(server, seconds)
+        quiet = await _exchanges_per_second(seconds)
         host, port = server.faces["modbus"].addresses["cell1"]  # type: ignore[attr-defined]
         child = await asyncio.create_subprocess_exec(
             sys.executable,
@@ -145,7 +167,7 @@ async def _run(seconds: float, cycle: float) -> dict[str, Any]:
             stdout=subprocess.PIPE,
         )
         await asyncio.sleep(0.5)  # the child's start-up, not counted
-        polled = await _exchanges_per_second(server, seconds - 1.0)
+        polled = await _exchanges_per_second(seconds - 1.0)
         out, _ = await child.communicate()
         figures: dict[str, Any] = json.loads(out.decode().strip().splitlines()[-1])
         figures["quiet"] = quiet
@@ -171,7 +193,13 @@ def main() -> int:
     f = asyncio.run(_run(args.seconds, cycle))
     print(f"PLC: {len(_READS)} requests every {args.cycle_ms:g} ms for {args.seconds:g} s")
     _print("the Modbus face", f, args.seconds, cycle)
-    print(f"  line exchanges/s: {f['quiet']:.1f} without the PLC, {f['polled']:.1f} with it")
+    quiet, polled = f["quiet"], f["polled"]
+    print(
+        f"  line exchanges/s: {sum(quiet.values()):.1f} without the PLC,"
+        f" {sum(polled.values()):.1f} with it; by command (without / with):"
+    )
+    for code in sorted(quiet.keys() | polled.keys()):
+        print(f"    {code}  {quiet.get(code, 0.0):5.1f} / {polled.get(code, 0.0):5.1f}")
     reference = _reference(args.seconds, cycle)
     _print("pymodbus's own server (reference)", reference, args.seconds, cycle)
     return 0
