@@ -20,6 +20,9 @@ from robostar.serve.line import Line
 from robostar.sim import SimConfig, VirtualController
 from robostar.transport.inproc import AsyncPeerTransport
 
+PRIMED = 65535
+"""The sequence number :func:`cell` writes first when commands are enabled."""
+
 
 class Sim:
     """The simulator behind the line, and a cable to pull (``broken``)."""
@@ -104,9 +107,11 @@ async def until(predicate: Callable[[], Any], timeout: float = 5.0) -> None:
 
 
 @asynccontextmanager
-async def cell(tmp_path: Path, **options: Any) -> AsyncIterator[Cell]:
+async def cell(tmp_path: Path, *, prime: bool = True, **options: Any) -> AsyncIterator[Cell]:
     """A line server (line cell1 on the simulator, auditing to a file) with its Modbus face on
-    a free loopback port, ``options`` added to the ``[modbus]`` section, and a PLC connected."""
+    a free loopback port, ``options`` added to the ``[modbus]`` section, and a PLC connected
+    (that has written its first sequence number, :data:`PRIMED`, when commands are enabled
+    and ``prime``)."""
     sim = Sim()
     audit = tmp_path / "audit.jsonl"
     config = ServeConfig(
@@ -124,6 +129,12 @@ async def cell(tmp_path: Path, **options: Any) -> AsyncIterator[Cell]:
         plc = AsyncModbusTcpClient(host, port=port, timeout=3)
         await plc.connect()
         try:
-            yield Cell(server, line, plc, sim, audit)
+            c = Cell(server, line, plc, sim, audit)
+            if prime and options.get("commands", {}).get("enabled"):
+                # the first sequence number after a start is a baseline, never run (reason
+                # restarted): a PLC's first write, as after every start of the face
+                await c.write_block([0] * HR.SEQUENCE + [PRIMED])
+                await c.result(PRIMED)
+            yield c
         finally:
             plc.close()

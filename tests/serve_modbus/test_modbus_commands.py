@@ -65,7 +65,7 @@ def test_a_job_runs_by_number_and_a_stop_ends_it(tmp_path: Path) -> None:
             assert _outcome(result) is Outcome.DONE, _text(result)
             assert not _running(c)
             records = [json.loads(line) for line in c.audit.read_text().splitlines()]
-            plc = [r for r in records if r["face"] == "modbus"]
+            plc = [r for r in records if r["face"] == "modbus"][1:]  # after the baseline
             assert [r["what"].split("(")[0] for r in plc] == ["SelectJob", "StartJob", "StopJob"]
             assert {r["who"] for r in plc} == {"plc"} and {r["outcome"] for r in plc} == {"ok"}
 
@@ -126,7 +126,7 @@ def test_the_faces_refusals_say_why(tmp_path: Path) -> None:
             assert "tester" in _text(result)
             assert c.sim.controller.executions.get("DB", 0) == 0
             records = [json.loads(line) for line in c.audit.read_text().splitlines()]
-            refused = [r for r in records if r["face"] == "modbus"]
+            refused = [r for r in records if r["face"] == "modbus"][1:]  # after the baseline
             assert len(refused) == 4
             assert all(r["outcome"].startswith("refused") for r in refused)
 
@@ -184,5 +184,24 @@ def test_a_command_while_another_runs_is_busy_but_a_stop_runs(tmp_path: Path) ->
             }
             assert outcomes["SelectJob"] == "ok" and outcomes["StopJob"] == "ok"
             assert outcomes["Servo"] == "refused: busy: sequence 1 is still running"
+
+    asyncio.run(main())
+
+
+def test_the_first_sequence_after_a_start_is_not_run(tmp_path: Path) -> None:
+    """A PLC that writes its block every cycle writes the last command again after the face
+    restarts: that block must not run a second time."""
+
+    async def main() -> None:
+        options = {"commands": {"enabled": True, "allow": ALL}}
+        async with cell(tmp_path, prime=False, **options) as c:
+            result = await c.command(SERVO, 1, 1, sequence=9)
+            assert _outcome(result) is Outcome.REFUSED
+            assert _reason(result) is Reason.RESTARTED
+            assert "write a new one" in _text(result)
+            assert c.sim.controller.executions.get("DB", 0) == 0
+            await c.write_block([SERVO, 1, 1, 0, 0, 0, 0, 0, 0, 9])  # again: nothing
+            assert _outcome(await c.command(SERVO, 1, 1, sequence=10)) is Outcome.DONE
+            assert c.sim.controller.executions.get("DB", 0) == 1
 
     asyncio.run(main())

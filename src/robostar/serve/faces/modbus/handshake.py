@@ -23,6 +23,7 @@ line, as on every face; they also run while another command of the PLC is still 
 
 from __future__ import annotations
 
+import enum
 import struct
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -49,6 +50,7 @@ __all__ = [
     "STOP_NAMES",
     "Request",
     "Sequencer",
+    "Take",
     "parse_request",
 ]
 
@@ -146,16 +148,29 @@ def parse_request(registers: Sequence[int]) -> Request:
     return request
 
 
+class Take(enum.Enum):
+    """What a write of the sequence register means."""
+
+    NOTHING = "nothing"
+    """0, or the sequence number last taken: the same block written again."""
+    RUN = "run"
+    BASELINE = "baseline"
+    """The first sequence number since the face started: it may be a command the face ran
+    before a restart, rewritten by a PLC that writes its block every cycle, so it is refused
+    (reason ``restarted``), never run; the PLC writes a new number to run its command."""
+
+
 class Sequencer:
     """Which writes of the command block start a command: a sequence number other than 0 and
-    other than the last one taken. The same block written twice runs once."""
+    other than the last one taken. The same block written twice runs once, across a restart
+    of the face too (see :attr:`Take.BASELINE`)."""
 
     def __init__(self) -> None:
-        self.last = 0
+        self.last: int | None = None
 
-    def take(self, sequence: int) -> bool:
-        """True (and remember it) when ``sequence`` starts a command."""
+    def take(self, sequence: int) -> Take:
+        """What ``sequence`` means (and remember it unless it means nothing)."""
         if sequence == 0 or sequence == self.last:
-            return False
-        self.last = sequence
-        return True
+            return Take.NOTHING
+        first, self.last = self.last is None, sequence
+        return Take.BASELINE if first else Take.RUN

@@ -42,8 +42,8 @@ IO_PORTS = (0, 1, 2, 3, 4)
 ALARM_SLOTS = 8
 MAX_GLOBALS = 100
 """Global ints (and floats) the map can hold: 200 registers each."""
-TEXT_REGISTERS = 32
-"""The refusal text (KD's reason, or the face's): 64 ASCII characters, two per register."""
+TEXT_REGISTERS = 64
+"""The refusal text (KD's reason, or the face's): 128 ASCII characters, two per register."""
 
 
 class Table(enum.Enum):
@@ -113,6 +113,9 @@ class Reason(enum.IntEnum):
     """Withdrawn or aborted before it was carried out (a stop, the server stopping)."""
     FAILED = 10
     """Any other failure (the text says what)."""
+    RESTARTED = 11
+    """The first sequence number the face saw since it started: not run (it may be a command
+    run before a restart, written again); write a new one."""
 
 
 @dataclass(frozen=True)
@@ -543,7 +546,7 @@ def register_map(
             hr,
             HR.TEXT,
             TEXT_REGISTERS,
-            "ascii64",
+            "ascii128",
             "cmd.text",
             "the refusal's text: KD's reason, or this face's (2 characters a register)",
         ),

@@ -25,7 +25,13 @@ from robostar.errors import (
     UsageError,
 )
 from robostar.serve.audit import AuditError
-from robostar.serve.faces.modbus.handshake import CODES, Request, Sequencer, parse_request
+from robostar.serve.faces.modbus.handshake import (
+    CODES,
+    Request,
+    Sequencer,
+    Take,
+    parse_request,
+)
 from robostar.serve.faces.modbus.image import text_words
 from robostar.serve.faces.modbus.layout import HR, TEXT_REGISTERS, Outcome, Reason
 from robostar.serve.lease import LeaseHeldError, Who
@@ -80,10 +86,15 @@ class CommandRunner:
     def submit(self, block: Sequence[int]) -> None:
         """The command block after a PLC's write: run its command if its sequence is new."""
         sequence = block[HR.SEQUENCE]
-        if not self.sequencer.take(sequence):
+        take = self.sequencer.take(sequence)
+        if take is Take.NOTHING:
             return
         self._set(HR.ACCEPTED_SEQUENCE, sequence)
         name = CODES.get(block[HR.COMMAND], (f"code {block[HR.COMMAND]}", None))[0]
+        if take is Take.BASELINE:
+            text = "the first sequence number since the face started: write a new one"
+            self._refuse(sequence, f"modbus {name}", Reason.RESTARTED, text)
+            return
         try:
             request = parse_request(block)
         except RobostarError as exc:
