@@ -69,7 +69,7 @@ class LinePort:
         """The map as of now. Rebuilt only when something it shows may have changed (a value
         stored, a quality changed, a global read, the line up or down, a JOB list read);
         otherwise only the ages move: a PLC's many reads between two polls cost little."""
-        key = (self.line.model.updates, self.line.up, self._globals_read, self._jobs_read())
+        key = (self.line.model.updates, self.line.up, self._globals_read, self.jobs.reads)
         changed = self._changes.pending() > 0
         while self._changes.get_nowait() is not None:
             pass
@@ -80,9 +80,6 @@ class LinePort:
         else:
             self._image.set_ages(now)
         return self._image
-
-    def _jobs_read(self) -> int:
-        return sum(len(numbers) + 1 for numbers in self.jobs.numbers.values())
 
     def _build(self, now: float) -> Image:
         inputs = ImageInputs(

@@ -52,11 +52,14 @@ class JobTable:
     def __init__(self, line: Line) -> None:
         self.line = line
         self.numbers: dict[int, dict[str, int]] = {}
+        self.reads = 0
+        """JOB lists read so far (the map is rebuilt after each)."""
 
     async def refresh(self, channel: int) -> dict[str, int]:
         records = await self.line.read(ListFiles(channel), max_age=0)
         numbers = {r.name.upper(): r.job_number for r in records if r.name.upper().endswith(".JOB")}
         self.numbers[channel] = numbers
+        self.reads += 1
         return numbers
 
     async def file_of(self, channel: int, number: int) -> str | None:
