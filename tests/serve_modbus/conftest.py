@@ -13,7 +13,9 @@ from typing import Any
 from pymodbus.client import AsyncModbusTcpClient
 
 from robostar.client.aio import AsyncClient
-from robostar.errors import PortError
+from robostar.client.exchange import Progress
+from robostar.commands.base import Command
+from robostar.errors import OutcomeUnknownError, PortError
 from robostar.serve import LineConfig, LineServer, ServeConfig
 from robostar.serve.faces.modbus.layout import HR
 from robostar.serve.line import Line
@@ -30,9 +32,18 @@ class Sim:
     def __init__(self) -> None:
         self.controller = VirtualController(SimConfig())
         self.broken = False
+        self.lose_answer_of: str | None = None
+        """A command code whose answer is lost after the controller carried it out."""
 
     def client(self, config: LineConfig) -> AsyncClient:
         sim = self
+
+        class Client(AsyncClient):
+            async def execute(self, command: Command[Any], progress: Progress | None = None) -> Any:
+                result = await super().execute(command, progress)
+                if sim.lose_answer_of == command.CODE:
+                    raise OutcomeUnknownError(command.CODE, "the answer was lost")
+                return result
 
         class Cable(AsyncPeerTransport):
             async def open(self) -> None:
@@ -45,7 +56,7 @@ class Sim:
                     raise PortError("cable pulled")
                 await super().write(data)
 
-        return AsyncClient(Cable(self.controller, url="sim://"), timeout=0.5)
+        return Client(Cable(self.controller, url="sim://"), timeout=0.5)
 
     @property
     def model(self) -> Any:

@@ -205,3 +205,15 @@ def test_the_first_sequence_after_a_start_is_not_run(tmp_path: Path) -> None:
             assert c.sim.controller.executions.get("DB", 0) == 1
 
     asyncio.run(main())
+
+
+def test_a_lost_answer_is_published_as_outcome_unknown(tmp_path: Path) -> None:
+    async def main() -> None:
+        async with cell(tmp_path, commands={"enabled": True, "allow": ALL}) as c:
+            c.sim.lose_answer_of = "CB"
+            result = await c.command(7, 1, 400, sequence=1)  # speed
+            assert _outcome(result) is Outcome.OUTCOME_UNKNOWN
+            assert "outcome is unknown" in _text(result)
+            assert c.sim.model.channel(1).speed == 400  # it ran: the PLC must check, not resend
+
+    asyncio.run(main())
