@@ -13,6 +13,7 @@ from typing import Any
 
 import click
 
+from robostar.cli.serve_modbus import modbus_map
 from robostar.cli.serve_users import user
 from robostar.errors import UsageError
 from robostar.serve.config import (
@@ -61,6 +62,7 @@ def build_config(
     token: str | None,
     audit: str | None,
     no_audit: bool = False,
+    modbus: tuple[str, ...] = (),
 ) -> ServeConfig:
     """The file's configuration (if any) with the command line's lines and faces on top.
 
@@ -72,10 +74,11 @@ def build_config(
         lc = parse_line_arg(text)
         all_lines[lc.name] = lc
     sections = {name: dict(options) for name, options in base.faces.items()}
-    if n1:
-        n1_lines = dict(sections.get("n1", {}).get("lines", {}))
-        n1_lines.update(_pair("--n1", text) for text in n1)
-        sections.setdefault("n1", {})["lines"] = n1_lines
+    for face, option, pairs in (("n1", "--n1", n1), ("modbus", "--modbus", modbus)):
+        if pairs:
+            face_lines = dict(sections.get(face, {}).get("lines", {}))
+            face_lines.update(_pair(option, text) for text in pairs)
+            sections.setdefault(face, {})["lines"] = face_lines
     for name, value in faces.items():
         if value is not None:
             key = "url" if name == "mqtt" else "listen"
@@ -177,6 +180,12 @@ async def _run(config: ServeConfig) -> None:
     help="Validate CONFIG without opening any line, and exit.",
 )
 @click.option("--n1", multiple=True, metavar="NAME=HOST:PORT", help="Serve line NAME as an N1.")
+@click.option(
+    "--modbus",
+    multiple=True,
+    metavar="NAME=HOST:PORT",
+    help="Serve line NAME to a PLC (Modbus TCP).",
+)
 @click.option("--api", metavar="HOST:PORT", help="The local JSON API.")
 @click.option("--metrics", metavar="HOST:PORT", help="Prometheus metrics at /metrics.")
 @click.option("--mqtt", metavar="URL", help="Publish to an MQTT broker.")
@@ -211,6 +220,7 @@ def serve(
     config_file: str | None,
     check_file: str | None,
     n1: tuple[str, ...],
+    modbus: tuple[str, ...],
     api: str | None,
     metrics: str | None,
     mqtt: str | None,
@@ -238,6 +248,8 @@ def serve(
       robostar serve --config serve.toml --metrics 127.0.0.1:9464
       robostar serve user add olga --role operator --users users.toml   # web and OPC UA users
       robostar serve --line cell1=sim:// --opcua 127.0.0.1:4840 --opcua-allow-anonymous-read
+      robostar serve --line cell1=sim:// --modbus cell1=127.0.0.1:5020   # a PLC, Modbus TCP
+      robostar serve modbus-map --format csv              # the register map for the PLC
     """
     if ctx.invoked_subcommand is not None:
         return  # `robostar serve user ...`: manage users, serve nothing
@@ -251,7 +263,9 @@ def serve(
     if allow_remote and not token:
         raise UsageError("--allow-remote needs --token (or ROBOSTAR_SERVE_TOKEN)")
     faces = {"api": api, "metrics": metrics, "mqtt": mqtt, "opcua": opcua, "web": web}
-    config = build_config(config_file, lines, n1, faces, allow_remote, token, audit, no_audit)
+    config = build_config(
+        config_file, lines, n1, faces, allow_remote, token, audit, no_audit, modbus
+    )
     if opcua_allow_anonymous_read:
         if "opcua" not in config.faces:
             raise UsageError("--opcua-allow-anonymous-read needs --opcua (or [opcua])")
@@ -275,3 +289,4 @@ def serve(
 
 
 serve.add_command(user)
+serve.add_command(modbus_map)

@@ -24,7 +24,7 @@ __all__ = [
     "parse_line_arg",
 ]
 
-FACE_NAMES = frozenset(("n1", "api", "mqtt", "opcua", "web", "metrics"))
+FACE_NAMES = frozenset(("n1", "api", "mqtt", "opcua", "web", "metrics", "modbus"))
 _NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_-]{0,31}$")
 
 

@@ -10,7 +10,7 @@ from robostar.errors import RobostarError
 
 __all__ = ["FACES", "Lease", "LeaseHeldError", "LeaseInfo", "Who"]
 
-FACES = frozenset(("n1", "api", "mqtt", "opcua", "web", "cli"))
+FACES = frozenset(("n1", "api", "mqtt", "opcua", "web", "modbus", "cli"))
 
 
 @dataclass(frozen=True)

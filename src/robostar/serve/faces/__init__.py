@@ -20,6 +20,7 @@ FACES: dict[str, str] = {
     "opcua": "robostar.serve.faces.opcua",
     "web": "robostar.serve.faces.web",
     "metrics": "robostar.serve.faces.metrics",
+    "modbus": "robostar.serve.faces.modbus",
 }
 
 

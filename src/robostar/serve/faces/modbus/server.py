@@ -1,0 +1,151 @@
+"""The pymodbus glue: one asyncio Modbus TCP server per line, its tables laid out as the map,
+every request passed through :class:`RegisterSource` (reads answered from the model, writes to
+the command block checked and handed to the handshake).
+
+pymodbus's ``SimDevice`` holds four tables (coils, discrete inputs, holding and input
+registers); its ``action`` hook sees each request before pymodbus answers it and may refresh the
+registers or answer with an exception. Coils are not mapped: every coil request is answered
+ILLEGAL DATA ADDRESS, as is a write to a read-only register (pymodbus checks that itself) and
+any address past a table's end.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Sequence
+from typing import Protocol
+
+from pymodbus.constants import ExcCodes
+from pymodbus.server import ModbusTcpServer
+from pymodbus.simulator import DataType, SimData, SimDevice
+
+from robostar.errors import UsageError
+from robostar.listen import check_host
+from robostar.serve.faces.modbus.image import Image
+from robostar.serve.faces.modbus.layout import DI, HR, IR
+from robostar.transport.url import netloc
+
+__all__ = ["RegisterServer", "RegisterSource"]
+
+log = logging.getLogger("robostar.serve.modbus")
+
+_READ_DI = 2
+_READ_IR = 4
+_HOLDING = frozenset((3, 6, 16, 22, 23))
+_COILS = frozenset((1, 5, 15))
+
+
+class RegisterSource(Protocol):
+    """What a line's server asks of the face."""
+
+    def image(self) -> Image:
+        """The input registers and discrete inputs as of now."""
+
+    def results(self) -> list[int]:
+        """The handshake's read-only registers, HR.DONE_SEQUENCE to HR.SIZE."""
+
+    def check_write(self, address: int, values: Sequence[int]) -> ExcCodes | None:
+        """An exception for a write the command block refuses (a bad value), else None."""
+
+    def written(self, block: list[int]) -> None:
+        """The command block (HR 0-9) after a write that was accepted."""
+
+
+def _pack_bits(bits: Sequence[bool]) -> list[int]:
+    """Bits as pymodbus keeps them: 16 to a register, bit 0 in the lowest bit."""
+    words = []
+    for start in range(0, len(bits), 16):
+        word = 0
+        for i, on in enumerate(bits[start : start + 16]):
+            if on:
+                word |= 1 << i
+        words.append(word)
+    return words
+
+
+class RegisterServer:
+    """The Modbus TCP server of one line (see the module docstring)."""
+
+    def __init__(self, name: str, source: RegisterSource, *, writes: bool) -> None:
+        self.name = name
+        self.source = source
+        self.writes = writes
+        self.address: tuple[str, int] | None = None
+        self._server: ModbusTcpServer | None = None
+        self._packed: tuple[list[bool], list[int]] | None = None
+        """The discrete inputs last packed, and their packing (they change with the model)."""
+
+    def device(self) -> SimDevice:
+        """The tables: coils (present, never answered), discrete inputs, holding registers
+        (0-9 writable when writes are on; the results read-only), input registers."""
+        writable = SimData(
+            HR.COMMAND, count=HR.WRITABLE, datatype=DataType.REGISTERS, readonly=not self.writes
+        )
+        results = SimData(
+            HR.WRITABLE, count=HR.SIZE - HR.WRITABLE, datatype=DataType.REGISTERS, readonly=True
+        )
+        return SimDevice(
+            0,  # every unit id: a PLC may address the face as unit 0, 1 or 255
+            simdata=(
+                [SimData(0, values=[False] * 16, datatype=DataType.BITS)],
+                [SimData(0, values=[False] * DI.SIZE, datatype=DataType.BITS, readonly=True)],
+                [writable, results],
+                [SimData(0, count=IR.SIZE, datatype=DataType.REGISTERS, readonly=True)],
+            ),
+            action=self._action,
+        )
+
+    async def start(self, host: str, port: int, *, allow_remote: bool) -> tuple[str, int]:
+        check_host(host, allow_remote)
+        server = ModbusTcpServer(self.device(), address=(host, port))
+        try:
+            await server.serve_forever(background=True)
+        except RuntimeError as exc:
+            raise UsageError(
+                f"modbus.lines.{self.name}: cannot listen on {netloc(host, port)}"
+                " (is the port in use?)"
+            ) from exc
+        self._server = server
+        listener = server.transport
+        sockets = getattr(listener, "sockets", None) or ()
+        bound = sockets[0].getsockname() if sockets else (host, port)
+        self.address = (str(bound[0]), int(bound[1]))
+        return self.address
+
+    async def stop(self) -> None:
+        server, self._server = self._server, None
+        if server is not None:
+            await server.shutdown()  # type: ignore[no-untyped-call]
+
+    async def _action(
+        self,
+        function_code: int,
+        start_address: int,
+        address: int,
+        count: int,
+        registers: list[int],
+        values: list[int] | list[bool] | None,
+    ) -> ExcCodes | None:
+        """pymodbus's hook, before it answers: refresh what is read, check what is written."""
+        if function_code in _COILS:
+            return ExcCodes.ILLEGAL_ADDRESS
+        if function_code == _READ_IR:
+            registers[: IR.SIZE] = self.source.image().input_registers
+        elif function_code == _READ_DI:
+            bits = self.source.image().discrete_inputs
+            if self._packed is None or self._packed[0] is not bits:
+                self._packed = (bits, _pack_bits(bits))
+            registers[: DI.SIZE // 16] = self._packed[1]
+        elif function_code in _HOLDING:
+            registers[HR.WRITABLE : HR.SIZE] = self.source.results()
+            if values:
+                words = [int(v) for v in values]
+                problem = self.source.check_write(address, words)
+                if problem is not None:
+                    return problem
+                block = list(registers[: HR.WRITABLE])
+                for i, word in enumerate(words):
+                    if address + i < HR.WRITABLE:
+                        block[address + i] = word
+                self.source.written(block)
+        return None
