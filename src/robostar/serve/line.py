@@ -213,6 +213,14 @@ class Line:
         self._written = False
         self.info: ControllerInfo | None = None
         self.lease.on_lost.append(self._lease_lost)
+        if config.max_age:
+            log.warning(
+                "line %s: max_age = %g in its config has no effect any more: reads are answered"
+                " by the controller unless a request accepts an older value (the API's max_age,"
+                " serve://...?max_age=, n1.max_age)",
+                self.name,
+                config.max_age,
+            )
 
     # -- life cycle ------------------------------------------------------------------------
     async def start(self) -> None:
