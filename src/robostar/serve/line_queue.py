@@ -14,6 +14,9 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from robostar.commands.base import Command
+from robostar.commands.control import EmergencyStop, StopHoming, StopJob
+from robostar.commands.files import DownloadFile, ReadAlarmHistory, UploadFile
+from robostar.commands.motion import JogStop
 from robostar.serve.lease import Who
 
 __all__ = [
@@ -23,8 +26,15 @@ __all__ = [
     "PRI_READ",
     "PRI_STOP",
     "PRI_WRITE",
+    "STOPS",
+    "TRANSFERS",
     "Job",
 ]
+
+STOPS = (EmergencyStop, StopJob, StopHoming, JogStop)
+"""CF, CD, CI, BG: anyone may send them (no lease), and they jump every queue."""
+TRANSFERS = (UploadFile, DownloadFile, ReadAlarmHistory)
+"""Long multi-packet exchanges a stop cancels rather than waits for."""
 
 PRI_STOP, PRI_KEEPALIVE, PRI_WRITE, PRI_LATE_POLL, PRI_READ, PRI_POLL = range(6)
 """Queue order, lowest first. The poller's reads come last, unless the model has gone
