@@ -56,7 +56,7 @@ from robostar.serve.line_queue import (
 )
 from robostar.serve.line_queue import Job as _Job
 from robostar.serve.model import ControllerModel, Quality
-from robostar.serve.model_keys import from_model, model_key, store
+from robostar.serve.model_keys import ModelFeed, model_key
 from robostar.serve.poller import Poller, stale_after
 from robostar.serve.reads import ReadFlights
 from robostar.types import ControllerInfo
@@ -108,6 +108,8 @@ class Line:
         self.name = config.name
         self.config = config
         self.model = ControllerModel(config.name)
+        self.feed = ModelFeed(self.model)
+        """Reads' answers into the model, and reads that accept an older value out of it."""
         self.lease = Lease(config.name, ttl=lease_ttl)
         self.health = LineHealth()
         self.audit = audit if audit is not None else AuditLog(None)
@@ -263,7 +265,7 @@ class Line:
         if command.CHANGES_STATE:
             raise UsageError(f"{command.CODE} changes state: use execute(), with a lease holder")
         if max_age is not None:
-            cached = from_model(self.model, command, max_age)
+            cached = self.feed.answer(command, max_age)
             if cached is not None:
                 return cast(R, cached[0]), cached[1]
         if self._reads_waiting >= MAX_QUEUED_READS:
@@ -528,6 +530,14 @@ class Line:
             self.health.reconnects += 1
         self._client = client
         self.info = info
+        self.feed.present = _channels_of(info)
+        missing = sorted(set(self.config.channels) - set(self.feed.present))
+        if missing:
+            log.warning(
+                "line %s: channel(s) %s configured, but the controller has no robot there",
+                self.name,
+                ", ".join(map(str, missing)),
+            )
         self.poller.line_opened()
         self.model.set("info", info)
         self.model.set("online", True)
@@ -569,15 +579,19 @@ class Line:
     def _answered(self, command: Command[Any], result: Any, began: float) -> None:
         """A read flight's answer (a consumer's or the poller's): into the model, stamped with
         the start of its exchange (the oldest instant it may describe)."""
-        store(self.model, command, result, began)
+        self.feed.store(command, result, began)
 
     def channels(self) -> tuple[int, ...]:
-        """The channels the poller reads: the configured ones, else those the controller has."""
-        if self.config.channels:
-            return tuple(sorted(self.config.channels))
-        if self.info is not None:
-            return tuple(c.channel for c in self.info.channels if c.axes_in_use) or (1,)
-        return (1,)
+        """The channels of this line the poller reads and the faces show: those the controller
+        has (its AD answer: a robot with axes in use), of the configured ones when configured;
+        before the controller has answered, the configured ones, else channel 1."""
+        configured = tuple(sorted(self.config.channels))
+        if self.info is None:
+            return configured or (1,)
+        has = _channels_of(self.info)
+        if not configured:
+            return has
+        return tuple(c for c in configured if c in has)
 
     async def wait_polled(self, timeout: float = 5.0) -> None:
         """Wait until a complete poll cycle has ended after now (tests, the CLI's start-up)."""
@@ -592,6 +606,11 @@ def _cancelled_outcome(job: _Job | None) -> str:
     if future.done() and not future.cancelled() and future.exception() is None:
         return "ok (the requester went away before its answer)"
     return "outcome unknown: the requester went away while it was on the wire"
+
+
+def _channels_of(info: ControllerInfo) -> tuple[int, ...]:
+    """The channels the controller has: a robot with axes in use (channel 1 at least)."""
+    return tuple(c.channel for c in info.channels if c.axes_in_use) or (1,)
 
 
 def _default_client(config: LineConfig) -> AsyncClient:

@@ -15,7 +15,7 @@ from robostar.commands.status import ReadAlarms, ReadInfo, ReadPosition, ReadSta
 from robostar.serve.model import ControllerModel
 from robostar.types import PositionKind
 
-__all__ = ["from_model", "keys_of", "model_key", "store"]
+__all__ = ["ModelFeed", "keys_of", "model_key"]
 
 _STATUS_KEYS = tuple(f"ch{n}/status" for n in (1, 2, 3))
 """AA answers the status of the three channels at once."""
@@ -55,31 +55,52 @@ def keys_of(command: Command[Any]) -> set[str]:
     return set() if key is None else {key}
 
 
-def from_model(
-    model: ControllerModel, command: Command[Any], max_age: float
-) -> tuple[Any, float] | None:
-    """The model's answer to ``command`` and its time, if good and at most ``max_age`` old
-    (and newer than the last state change); None when the model cannot answer."""
-    if isinstance(command, ReadStatus):
-        samples = [model.fresh(key, max_age) for key in _STATUS_KEYS]
-        if all(s is not None for s in samples):
-            good = [s for s in samples if s is not None]
-            return tuple(s.value for s in good), min(s.at for s in good)
-        return None
-    key = model_key(command)
-    if key is None:
-        return None
-    sample = model.fresh(key, max_age)
-    return None if sample is None else (sample.value, sample.at)
+class ModelFeed:
+    """Puts reads' answers into a line's model, and answers reads from it.
 
+    AA answers the status of all three channels; only the channels the controller has
+    (``present``, from its AD answer) are model keys, so that the push faces show no channel it
+    lacks. The others' statuses are kept aside, to answer AA from the model whole."""
 
-def store(model: ControllerModel, command: Command[Any], result: Any, at: float) -> None:
-    """Put ``command``'s answer into the model, stamped ``at`` (NaN: now)."""
-    stamp = None if math.isnan(at) else at
-    if isinstance(command, ReadStatus):
-        for key, status in zip(_STATUS_KEYS, result, strict=False):
-            model.set(key, status, stamp)
-        return
-    one = model_key(command)
-    if one is not None:
-        model.set(one, result, stamp)
+    def __init__(self, model: ControllerModel) -> None:
+        self.model = model
+        self.present: tuple[int, ...] = (1, 2, 3)
+        self._absent: dict[str, Any] = {}
+
+    def answer(self, command: Command[Any], max_age: float) -> tuple[Any, float] | None:
+        """The model's answer to ``command`` and its time, if good and at most ``max_age`` old
+        (and newer than the last state change); None when the model cannot answer."""
+        if isinstance(command, ReadStatus):
+            values: list[Any] = []
+            times: list[float] = []
+            for n, key in enumerate(_STATUS_KEYS, start=1):
+                if n not in self.present:
+                    if key not in self._absent:
+                        return None
+                    values.append(self._absent[key])
+                    continue
+                sample = self.model.fresh(key, max_age)
+                if sample is None:
+                    return None
+                values.append(sample.value)
+                times.append(sample.at)
+            return tuple(values), min(times, default=0.0)
+        one = model_key(command)
+        if one is None:
+            return None
+        sample = self.model.fresh(one, max_age)
+        return None if sample is None else (sample.value, sample.at)
+
+    def store(self, command: Command[Any], result: Any, at: float) -> None:
+        """Put ``command``'s answer into the model, stamped ``at`` (NaN: now)."""
+        stamp = None if math.isnan(at) else at
+        if isinstance(command, ReadStatus):
+            for n, (key, status) in enumerate(zip(_STATUS_KEYS, result, strict=False), start=1):
+                if n in self.present:
+                    self.model.set(key, status, stamp)
+                else:
+                    self._absent[key] = status
+            return
+        one = model_key(command)
+        if one is not None:
+            self.model.set(one, result, stamp)
