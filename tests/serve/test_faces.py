@@ -170,3 +170,21 @@ def test_an_unknown_or_missing_face_is_a_clear_error() -> None:
                 create_face("api", server, {"listen": "0.0.0.0:0", "allow_remote": True})
 
     asyncio.run(main())
+
+
+def test_the_face_registry_does_not_import_the_server_that_imports_it() -> None:
+    import ast
+    from pathlib import Path
+
+    import robostar.serve.faces as registry
+
+    tree = ast.parse(Path(registry.__file__).read_text())
+    imported = {
+        node.module for node in ast.walk(tree) if isinstance(node, ast.ImportFrom) and node.module
+    } | {
+        alias.name
+        for node in ast.walk(tree)
+        if isinstance(node, ast.Import)
+        for alias in node.names
+    }
+    assert "robostar.serve.line_server" not in imported

@@ -9,6 +9,8 @@ import asyncio
 from robostar.commands.status import ReadStatus
 from robostar.serve import LineConfig, LineServer, ServeConfig
 
+from .line_fakes import first_poll
+
 
 def _server(channels: dict[int, str]) -> LineServer:
     line = LineConfig("cell1", "sim://?channels=2", poll_interval=5.0, channels=channels)
@@ -19,7 +21,7 @@ def test_a_two_channel_controller_has_no_channel_three_in_the_model() -> None:
     async def main() -> None:
         async with _server({}) as server:
             line = server.lines["cell1"]
-            await line.wait_polled()
+            await first_poll(line)
             assert line.channels() == (1, 2)
             keys = line.model.snapshot().keys()
             assert {"ch1/status", "ch2/status"} <= keys
@@ -35,7 +37,7 @@ def test_configured_channels_the_controller_lacks_are_not_shown() -> None:
     async def main() -> None:
         async with _server({1: "loader", 3: "unloader"}) as server:
             line = server.lines["cell1"]
-            await line.wait_polled()
+            await first_poll(line)
             assert line.channels() == (1,)
             assert not [key for key in line.model.snapshot() if key.startswith("ch3/")]
 

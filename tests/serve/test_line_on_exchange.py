@@ -18,6 +18,7 @@ from robostar.serve import Who
 from robostar.types import CoordSystem, MotionType
 
 from .conftest import sim_server
+from .line_fakes import first_poll
 
 ERIN = Who("erin", "web")
 JOB = ["MAIN", "MOVJ P0001 V=50", "EOP"]
@@ -32,7 +33,7 @@ def test_observers_see_uploads_downloads_refusals_and_who_asked() -> None:
     async def main() -> None:
         async with sim_server(poll_interval=5.0) as server:
             line = server.lines["cell1"]
-            await line.wait_polled()
+            await first_poll(line)
             line.on_exchange(failing)
             remove = line.on_exchange(lambda *exchange: seen.append(exchange))
             upload = UploadFile(1, "WELD.JOB", 1, JOB)

@@ -18,7 +18,7 @@ from robostar.serve import LineConfig, Who
 from robostar.serve.audit import AuditLog
 from robostar.serve.line import Line, WithdrawnError
 
-from .line_fakes import FaultySim, hold_the_line, wait_for
+from .line_fakes import FaultySim, first_poll, hold_the_line, wait_for
 
 ANN = Who("ann", "n1")
 BOB = Who("bob", "n1")
@@ -31,7 +31,7 @@ async def _quiet_line(sim: FaultySim, path: Path) -> Line:
     config = LineConfig("cell1", "sim://", poll_interval=5.0, slow_interval=5.0)
     line = Line(config, client_factory=sim.client, audit=audit)
     await line.start()
-    await line.wait_polled()
+    await first_poll(line)
     return line
 
 

@@ -20,7 +20,7 @@ from robostar.sim import SimConfig, VirtualController
 from robostar.sim.alarms import AlarmCode
 from robostar.types import CoordSystem, MotionType
 
-from .line_fakes import FaultySim, wait_for
+from .line_fakes import FaultySim, first_poll, wait_for
 
 ANN = Who("ann", "api")
 
@@ -39,7 +39,7 @@ def test_a_refused_move_refreshes_the_model_at_once(tmp_path: Path) -> None:
             await line.execute(Home(1), who=ANN, implicit_lease=True)
             while not (await line.read(ReadStatus(), max_age=0))[0].origin:
                 await asyncio.sleep(0.02)
-            await line.wait_polled()
+            await first_poll(line)
             before = line.model.get("ch1/status")
             assert before is not None and not before.value.alarm
             past_the_limits = Move(1, MotionType.JOINT, CoordSystem.ANGLE, ((150.0, 0, 0, 0),))

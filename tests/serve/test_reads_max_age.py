@@ -19,6 +19,7 @@ from robostar.serve import LineConfig, LineServer, ServeConfig
 from robostar.transport.opener import async_transport_for_url
 
 from .conftest import sim_server
+from .line_fakes import first_poll
 
 
 def test_a_read_without_max_age_goes_to_the_controller_whatever_the_config_says() -> None:
@@ -29,7 +30,7 @@ def test_a_read_without_max_age_goes_to_the_controller_whatever_the_config_says(
     async def main() -> None:
         async with LineServer(config) as server:
             line = server.lines["cell1"]
-            await line.wait_polled()
+            await first_poll(line)
             before = line.health.exchanges
             for _ in range(3):
                 await line.read(ReadStatus())
@@ -42,7 +43,7 @@ def test_a_read_with_max_age_is_answered_from_the_model_with_its_time() -> None:
     async def main() -> None:
         async with sim_server(poll_interval=5.0) as server:
             line = server.lines["cell1"]
-            await line.wait_polled()
+            await first_poll(line)
             sample = line.model.get("ch1/speed")
             assert sample is not None
             before = line.health.exchanges
@@ -64,7 +65,7 @@ def test_the_api_gives_a_reads_age_and_takes_max_age_in_the_body_or_the_query() 
     async def main() -> None:
         async with LineServer(_api_config()) as server:
             line = server.lines["cell1"]
-            await line.wait_polled()
+            await first_poll(line)
             host, port = server.faces["api"].address  # type: ignore[attr-defined]
             url = f"http://{host}:{port}/lines/cell1/commands"
             async with httpx.AsyncClient(timeout=10) as http:
@@ -90,7 +91,7 @@ def test_the_api_gives_a_model_answers_true_age() -> None:
     async def main() -> tuple[float, float]:
         async with LineServer(_api_config()) as server:
             line = server.lines["cell1"]
-            await line.wait_polled()
+            await first_poll(line)
             host, port = server.faces["api"].address  # type: ignore[attr-defined]
             async with httpx.AsyncClient(timeout=10) as http:
                 await asyncio.sleep(0.3)
@@ -107,7 +108,7 @@ def test_serve_urls_max_age_reads_from_the_model_and_without_it_from_the_control
     async def main() -> tuple[int, int]:
         async with LineServer(_api_config()) as server:
             line = server.lines["cell1"]
-            await line.wait_polled()
+            await first_poll(line)
             host, port = server.faces["api"].address  # type: ignore[attr-defined]
             counts = []
             for query in ("?max_age=60", ""):
