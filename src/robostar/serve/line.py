@@ -138,6 +138,7 @@ class Line:
             up=self._up,
             check_open=self._check_open,
             channels=self.channels,
+            recent=lambda command, age: self.feed.answer(command, age) is not None,
         )
         self.gate = LeaseGate(self.name, self.lease)
         self.jogs = JogGuard(self._send_jog_stop, self.record, self._takes_requests)

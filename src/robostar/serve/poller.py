@@ -7,7 +7,9 @@ every ``slow_interval`` (and at once after a state change); the alarm history ev
 consumer's read waiting with one is answered by it and every consumer's read refreshes the
 model too (as Home Assistant's DataUpdateCoordinator serves its entities). They wait behind the
 consumers' reads until the model would go stale waiting, then go ahead of them, so that no
-number of readers can starve it.
+number of readers can starve it. A value a consumer's read refreshed within half a poll
+interval (and after the last state change) is not read again by the cycle: hosts polling AA
+keep ``ch{n}/status`` fresh, and the wire's time goes to what nobody else reads.
 """
 
 from __future__ import annotations
@@ -60,6 +62,7 @@ class Poller:
         health: LineHealth,
         reads: ReadFlights,
         *,
+        recent: Callable[[Command[Any], float], bool] = lambda command, age: False,
         up: asyncio.Event,
         check_open: Callable[[], None],
         channels: Callable[[], tuple[int, ...]],
@@ -71,6 +74,7 @@ class Poller:
         self._up = up
         self._check_open = check_open
         self._channels = channels
+        self._recent = recent
         self.unsupported: set[str] = set()
         """Poll reads the controller answered 0x33 (not supported): not asked again until the
         line reopens (by :func:`model_key`, else the command's code)."""
@@ -148,6 +152,8 @@ class Poller:
         key = model_key(command) or command.CODE
         if key in self.unsupported:
             return
+        if self._recent(command, self.config.poll_interval / 2):
+            return  # a consumer's read refreshed it moments ago: the wire has better to do
         try:
             await self._poll_read(command)
         except NotSupportedError as exc:
