@@ -2,7 +2,8 @@
 controller's own port: after a move it waited for, the position read is the one the move
 reached; after a move the controller refused (soft limits), the status and the alarm list show
 the alarm it raised. Through the N1 face and through serve://, with a second consumer polling
-status on its own connection (as a dashboard or another cell PC does)."""
+status on its own connection (as a dashboard or another cell PC does); also right after a move
+with wait=True (the client waits by polling AA through the server)."""
 
 from __future__ import annotations
 
@@ -110,3 +111,20 @@ def test_a_refused_moves_alarm_is_seen_by_the_next_status_read(way: str) -> None
     seen = asyncio.run(main())
     missed = [s for s in seen if not (s[0] and s[1] == [AlarmCode.SOFT_LIMIT])]
     assert not missed, f"{len(missed)} of {len(seen)} rounds missed alarm 9003: {missed}"
+
+
+@pytest.mark.parametrize("way", ["n1", "serve"])
+def test_the_position_after_move_with_wait_is_where_the_move_ended(way: str) -> None:
+    async def main() -> list[float]:
+        async with _cell(way) as url, _someone_polling(url), AsyncClient(url) as host:
+            await host.home(1, wait=True)
+            moved = []
+            for _ in range(ROUNDS):
+                before = (await host.position(1, "angle")).axes[0]
+                await host.move_by(1, (STEP, 0.0, 0.0, 0.0), wait=True)
+                moved.append((await host.position(1, "angle")).axes[0] - before)
+            return moved
+
+    moved = asyncio.run(main())
+    wrong = [delta for delta in moved if delta != pytest.approx(STEP, abs=0.01)]
+    assert not wrong, f"{len(wrong)} of {len(moved)} rounds read a position not reached: {wrong}"
