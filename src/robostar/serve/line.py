@@ -205,7 +205,7 @@ class Line:
     async def execute(self, command: Command[R], *, who: Who, implicit_lease: bool = False) -> R:
         """Run ``command`` for ``who`` through the queue (state changes need the lease)."""
         if not command.CHANGES_STATE:
-            return await self.read(command)
+            return await self.read(command, who=who)
         is_stop = isinstance(command, STOPS)
         if not is_stop:
             try:
