@@ -128,3 +128,25 @@ def test_serve_urls_max_age_reads_from_the_model_and_without_it_from_the_control
 def test_a_bad_serve_max_age_is_a_clear_error(bad: str) -> None:
     with pytest.raises(UsageError, match="max_age"):
         async_transport_for_url(f"serve://127.0.0.1:8470/cell1?max_age={bad}")
+
+
+def test_the_api_starts_a_bounded_number_of_max_age_listeners() -> None:
+    from robostar.serve.faces.api import MAX_RELAXED_N1
+
+    async def main() -> None:
+        async with LineServer(_api_config()) as server:
+            host, port = server.faces["api"].address  # type: ignore[attr-defined]
+            url = f"http://{host}:{port}/lines/cell1/n1"
+            async with httpx.AsyncClient(timeout=10) as http:
+                addresses = set()
+                for age in range(MAX_RELAXED_N1):
+                    answer = await http.get(f"{url}?max_age={age}")
+                    assert answer.status_code == 200
+                    addresses.add(tuple(answer.json()["n1"]))
+                assert len(addresses) == MAX_RELAXED_N1
+                again = await http.get(f"{url}?max_age=0")
+                assert again.status_code == 200 and tuple(again.json()["n1"]) in addresses
+                one_more = await http.get(f"{url}?max_age=99")
+                assert one_more.status_code == 503 and "max_age" in one_more.text
+
+    asyncio.run(main())

@@ -333,6 +333,12 @@ def build_app(
             # serve://...?max_age=S: a listener of its own whose reads accept values S s old
             own = f"{line.name}?max_age={max_age:g}"
             async with api.own_n1_starting:
+                relaxed = [name for name in api.own_n1 if "?max_age=" in name]
+                if own not in api.own_n1 and len(relaxed) >= MAX_RELAXED_N1:
+                    # each is a listener: a client trying every value must not open thousands
+                    ages = ", ".join(name.partition("?")[2] for name in relaxed)
+                    message = f"max_age: {MAX_RELAXED_N1} listeners already ({ages}); use one"
+                    return _error(503, message, "busy")
                 if own not in api.own_n1:
                     options = {"lines": {line.name: "127.0.0.1:0"}, "max_age": max_age}
                     face = create_face("n1", server, options)
@@ -375,6 +381,10 @@ def build_app(
 
 def _guard_error(status: int, message: str) -> Response:
     return _error(status, message, "size" if status == 413 else "request")
+
+
+MAX_RELAXED_N1 = 8
+"""N1 listeners with a max_age of their own (serve://...?max_age=S) the API starts at most."""
 
 
 def _query_number(request: Request, name: str) -> float | str | None:
