@@ -122,3 +122,9 @@ async def n1_server(sim: FaultySim, audit: Path) -> AsyncIterator[tuple[Line, st
         await line.wait_polled()
         host, port = server.faces["n1"].addresses["cell1"]  # type: ignore[attr-defined]
         yield line, host, port
+
+
+async def first_poll(line: Line, timeout: float = 10.0) -> None:
+    """Wait until the line's first poll cycle has ended (the model holds every key). Unlike
+    ``wait_polled`` it never waits for a next cycle, which a slow poller starts seconds later."""
+    assert await wait_for(lambda: line.health.last_poll is not None, timeout)

@@ -105,7 +105,8 @@ def test_the_api_serves_the_model_commands_and_the_lease() -> None:
                 )
                 assert status == 200
                 read = {"command": "ReadSpeed", "args": {"channel": 1}}
-                assert _call(f"{base}/commands", read, "POST") == (200, {"result": 20})
+                status, answer = _call(f"{base}/commands", read, "POST")
+                assert (status, answer["result"]) == (200, 20) and answer["age_ms"] >= 0
                 bad = {"command": "SetSpeed", "args": {"channel": 9, "speed": 20}}
                 status, body = _call(f"{base}/commands", bad, "POST", **{"X-Robostar-Who": "ann"})
                 assert status == 400 and "channel" in body["message"]
@@ -169,3 +170,21 @@ def test_an_unknown_or_missing_face_is_a_clear_error() -> None:
                 create_face("api", server, {"listen": "0.0.0.0:0", "allow_remote": True})
 
     asyncio.run(main())
+
+
+def test_the_face_registry_does_not_import_the_server_that_imports_it() -> None:
+    import ast
+    from pathlib import Path
+
+    import robostar.serve.faces as registry
+
+    tree = ast.parse(Path(registry.__file__).read_text())
+    imported = {
+        node.module for node in ast.walk(tree) if isinstance(node, ast.ImportFrom) and node.module
+    } | {
+        alias.name
+        for node in ast.walk(tree)
+        if isinstance(node, ast.Import)
+        for alias in node.names
+    }
+    assert "robostar.serve.line_server" not in imported

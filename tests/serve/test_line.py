@@ -289,7 +289,7 @@ def test_values_nobody_refreshes_are_marked_stale(monkeypatch: pytest.MonkeyPatc
             async def hang(command: object) -> None:
                 await stuck.wait()
 
-            monkeypatch.setattr(line, "_poll_one", hang)  # a poller that never gets through
+            monkeypatch.setattr(line.poller, "_poll_one", hang)  # a poller that never gets through
             limit = stale_after(line.config)
             async with asyncio.timeout(limit + 5):
                 while line.model.get("ch1/status").quality is not Quality.STALE:  # type: ignore[union-attr]

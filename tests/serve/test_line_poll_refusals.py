@@ -59,7 +59,7 @@ def test_a_status_poll_refused_for_the_moment_goes_stale_and_is_polled_again() -
                     and s.value.servo_on == channel.servo
                 )
             )
-            assert not line._unsupported
+            assert not line.poller.unsupported
         finally:
             await line.stop()
 
@@ -104,7 +104,7 @@ def test_a_key_not_supported_is_given_up_as_stale_until_the_line_reopens() -> No
         try:
             await line.wait_polled()
             sim.refuse_once(ReadSpeed, NotSupportedError("CS"), lambda c: c.channel == 1)
-            assert await wait_for(lambda: "ch1/speed" in line._unsupported)
+            assert await wait_for(lambda: "ch1/speed" in line.poller.unsupported)
             sample = line.model.get("ch1/speed")
             assert sample is not None and sample.quality is Quality.STALE  # not vouched for
             given_up_at = speed_reads()
@@ -119,7 +119,7 @@ def test_a_key_not_supported_is_given_up_as_stale_until_the_line_reopens() -> No
             assert await wait_for(
                 lambda: (s := line.model.get("ch1/speed")) is not None and s.quality is Quality.GOOD
             )
-            assert "ch1/speed" not in line._unsupported
+            assert "ch1/speed" not in line.poller.unsupported
         finally:
             await line.stop()
 

@@ -117,3 +117,18 @@ def test_a_password_holding_url_characters_is_hidden_too() -> None:
         without_password("mqtts://broker:8883?ca=/etc/ca.pem")
         == "mqtts://broker:8883?ca=/etc/ca.pem"
     )
+
+
+def test_the_start_says_where_each_face_serves_never_none() -> None:
+    from types import SimpleNamespace
+
+    from robostar.cli.serve import serving
+
+    mqtt = SimpleNamespace(settings=object())  # connects out: no address of its own
+    url = {"url": "mqtt://cell3:S3cret-pw@127.0.0.1:1883"}
+    assert serving("mqtt", mqtt, url) == "serving mqtt: mqtt://cell3:***@127.0.0.1:1883"
+    n1 = SimpleNamespace(addresses={"cell1": ("127.0.0.1", 9101), "cell2": ("::1", 9102)})
+    assert serving("n1", n1, {}) == "serving n1: cell1 on 127.0.0.1:9101, cell2 on [::1]:9102"
+    api = SimpleNamespace(address=("127.0.0.1", 8470))
+    assert serving("api", api, {"listen": "127.0.0.1:0"}) == "serving api: 127.0.0.1:8470"
+    assert "None" not in serving("opcua", SimpleNamespace(), {})

@@ -9,6 +9,7 @@ import os
 import signal
 import sys
 import time
+from collections.abc import Mapping
 from typing import Any
 
 import click
@@ -25,6 +26,7 @@ from robostar.serve.config import (
     load_config,
     parse_line_arg,
 )
+from robostar.transport.url import netloc
 
 __all__ = ["serve"]
 
@@ -128,6 +130,20 @@ def without_password(url: str) -> str:
     return f"{scheme}://{user}:***@{host}"
 
 
+def serving(name: str, face: object, options: Mapping[str, Any]) -> str:
+    """The start's line for a face: where it listens (its bound addresses, port 0 resolved) or,
+    for a face that connects out (MQTT), where to, its password hidden."""
+    where: Any = getattr(face, "addresses", None) or getattr(face, "address", None)
+    if isinstance(where, Mapping):
+        text = ", ".join(f"{line} on {netloc(*address)}" for line, address in where.items())
+    elif isinstance(where, tuple | list) and len(where) == 2:
+        text = netloc(str(where[0]), int(where[1]))
+    else:
+        url = options.get("url") or options.get("listen")
+        text = without_password(url) if isinstance(url, str) else "on"
+    return f"serving {name}: {text}"
+
+
 def _describe(config: ServeConfig) -> list[str]:
     out = [f"line {lc.name}: {lc.url} (poll every {lc.poll_interval:g} s)" for lc in config.lines]
     for name, options in config.faces.items():
@@ -156,8 +172,7 @@ async def _run(config: ServeConfig) -> None:
             state = "up" if line.up else f"DOWN ({line.health.last_error})"
             log.info("line %s %s", name, state)
         for name, face in server.faces.items():
-            addresses = getattr(face, "addresses", None) or getattr(face, "address", None)
-            click.echo(f"serving {name}: {addresses}", err=True)
+            click.echo(serving(name, face, config.faces.get(name, {})), err=True)
         click.echo("ready; Ctrl-C or SIGTERM stops", err=True)
         await stop.wait()
         log.info("stopping: jogs are stopped, queued requests fail")

@@ -1,17 +1,19 @@
-"""The faces of the line server: each a module with ``create(server, options) -> Face``."""
+"""The faces of the line server: each a module with ``create(server, options) -> Face``.
+
+The server hands each face what it needs (:class:`FaceServer`: its lines, its faces, its
+configuration); this registry does not import the server, which imports it."""
 
 from __future__ import annotations
 
 import importlib
 from collections.abc import Mapping
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import Any, Protocol
 
 from robostar.errors import UsageError
+from robostar.serve.config import ServeConfig
+from robostar.serve.line import Line
 
-if TYPE_CHECKING:
-    from robostar.serve.line_server import LineServer
-
-__all__ = ["FACES", "Face", "create_face"]
+__all__ = ["FACES", "Face", "FaceServer", "create_face"]
 
 FACES: dict[str, str] = {
     "n1": "robostar.serve.faces.n1",
@@ -32,7 +34,21 @@ class Face(Protocol):
     async def stop(self) -> None: ...
 
 
-def create_face(name: str, server: LineServer, options: Mapping[str, Any]) -> Face:
+class FaceServer(Protocol):
+    """What a face is handed: the server's lines, its other faces, its configuration
+    (:class:`~robostar.serve.line_server.LineServer` is one)."""
+
+    @property
+    def lines(self) -> Mapping[str, Line]: ...
+
+    @property
+    def faces(self) -> Mapping[str, Face]: ...
+
+    @property
+    def config(self) -> ServeConfig: ...
+
+
+def create_face(name: str, server: FaceServer, options: Mapping[str, Any]) -> Face:
     """Import a face's module and create it; UsageError if unknown, missing or lacking an extra."""
     module_name = FACES.get(name)
     if module_name is None:

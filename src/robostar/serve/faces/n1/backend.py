@@ -40,8 +40,10 @@ _FLAG_FAILED = 0x32
 class N1Backend(Backend):
     """Hands each session's requests to one :class:`Line`."""
 
-    def __init__(self, line: Line) -> None:
+    def __init__(self, line: Line, *, max_age: float | None = None) -> None:
         self.line = line
+        self.max_age = max_age
+        """None: reads are linearizable; else a model value this many seconds old answers."""
         self._tasks: set[asyncio.Task[None]] = set()
         self._abandoned: set[Request] = set()
         """Requests whose host gave them up before their task ran (see exchange_abandoned)."""
@@ -76,7 +78,7 @@ class N1Backend(Backend):
             if command.CHANGES_STATE:
                 result = await self.line.execute(command, who=who, implicit_lease=True)
             else:
-                result = await self.line.read(command, who=who)
+                result = await self.line.read(command, who=who, max_age=self.max_age)
         except ControllerError as exc:
             self._refuse(request, exc.reason or str(exc), exc.flag or _FLAG_FAILED)
             return

@@ -1,0 +1,206 @@
+"""The cost of linearizable reads through the line server (figures, never asserted):
+``python -m bench.linearizable [SECONDS]``.
+
+1. Added latency: AA (status) and GR (a global integer) p50/p99 on loopback, straight to a TCP
+   simulator (a process of its own) vs through the line server's N1 face and through
+   ``serve://``. Every read through the server is linearizable: answered by a wire exchange
+   that began after it arrived.
+2. Many hosts, one slow line: 16 hosts each polling AA at 20 Hz through the N1 face of one
+   line to a simulator paced at 9600 baud (then 115200), the poller running as configured by
+   default, and one host writing (CB) every 0.25 s; the simulator, the server and the hosts
+   each in a process of their own. Reported: the hosts' AA latency p50/p99 in
+   AA exchange times (one AA straight to the same paced simulator, p50), the write's latency,
+   and the coalescing factor: AAs on the wire (counted with ``Line.on_exchange``) per AA the
+   hosts asked for.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import multiprocessing
+import subprocess
+import sys
+import time
+from collections.abc import Awaitable, Callable, Iterator
+from concurrent.futures import ProcessPoolExecutor
+from typing import Any
+
+from bench.measure import percentile
+from robostar import AsyncClient
+from robostar.commands.base import Command
+from robostar.commands.status import ReadStatus
+from robostar.serve import LineConfig, LineServer, ServeConfig
+
+SAMPLES = 300
+HOSTS = 16
+HOST_HZ = 20.0
+WRITE_EVERY = 0.25
+
+
+@contextlib.contextmanager
+def _simulator(baud: int | None = None) -> Iterator[str]:
+    """``python -m robostar.sim`` on a free loopback port, in a process of its own (paced at
+    ``baud`` when given): its URL."""
+    args = [sys.executable, "-m", "robostar.sim", "--listen", "127.0.0.1:0"]
+    if baud is not None:
+        args += ["--baud", str(baud)]
+    proc = subprocess.Popen(args, stdout=subprocess.PIPE, stdin=subprocess.DEVNULL, text=True)
+    try:
+        assert proc.stdout is not None
+        url = proc.stdout.readline().strip()
+        if not url.startswith("tcp://"):
+            raise RuntimeError(f"the simulator did not start: {url!r}")
+        yield url
+    finally:
+        proc.terminate()
+        proc.wait(10)
+
+
+def _ms(values: list[float], q: float) -> float:
+    return percentile(values, q) * 1e3
+
+
+async def _timed(call: Callable[[], Awaitable[Any]], n: int = SAMPLES) -> list[float]:
+    out = []
+    for _ in range(n):
+        t = time.perf_counter()
+        await call()
+        out.append(time.perf_counter() - t)
+    return out
+
+
+def _server_config(url: str) -> ServeConfig:
+    return ServeConfig(
+        lines=(LineConfig("cell", url),),
+        faces={
+            "n1": {"lines": {"cell": "127.0.0.1:0"}, "max_clients": 32},
+            "api": {"listen": "127.0.0.1:0"},
+        },
+    )
+
+
+async def added_latency() -> None:
+    rows: dict[str, dict[str, list[float]]] = {}
+    with _simulator() as sim_url:
+        urls = {"direct": sim_url}
+        async with LineServer(_server_config(sim_url)) as server:
+            n1_host, n1_port = server.faces["n1"].addresses["cell"]  # type: ignore[attr-defined]
+            api_host, api_port = server.faces["api"].address  # type: ignore[attr-defined]
+            urls["N1 face"] = f"tcp://{n1_host}:{n1_port}"
+            urls["serve://"] = f"serve://{api_host}:{api_port}/cell"
+            for label, url in urls.items():
+                async with AsyncClient(url) as client:
+                    await client.status()
+                    rows[label] = {
+                        "AA": await _timed(client.status),
+                        "GR": await _timed(lambda c=client: c.read_global_int(7)),
+                    }
+    print("1. linearizable reads, loopback TCP simulator (ms)")
+    for what in ("AA", "GR"):
+        base = rows["direct"][what]
+        for label, by_command in rows.items():
+            values = by_command[what]
+            line = f"  {what} {label:<9} p50 {_ms(values, 50):7.3f}  p99 {_ms(values, 99):7.3f}"
+            if label != "direct":
+                line += f"   added p50 {_ms(values, 50) - _ms(base, 50):+.3f}"
+                line += f" p99 {_ms(values, 99) - _ms(base, 99):+.3f}"
+            print(line)
+
+
+async def _aa_exchange_time(url: str) -> float:
+    """p50 of one AA straight to the simulator at ``url`` (seconds)."""
+    async with AsyncClient(url) as client:
+        await client.status()
+        return percentile(await _timed(client.status, 50), 50)
+
+
+def _hosts(url: str, seconds: float) -> tuple[list[float], list[float], int]:
+    """In a process of its own (the hosts are other programs, on other machines): HOSTS hosts
+    polling AA at HOST_HZ and one writing CB every WRITE_EVERY, for ``seconds``; the reads'
+    and the writes' latencies and the count of failed reads."""
+    return asyncio.run(_host_load(url, seconds))
+
+
+async def _host_load(url: str, seconds: float) -> tuple[list[float], list[float], int]:
+    reads: list[float] = []
+    writes: list[float] = []
+    errors = [0]
+    end = time.monotonic() + seconds
+
+    async def poller() -> None:
+        async with AsyncClient(url, timeout=10.0) as client:
+            next_at = time.monotonic()
+            while time.monotonic() < end:
+                t = time.perf_counter()
+                try:
+                    await client.status()
+                    reads.append(time.perf_counter() - t)
+                except Exception:
+                    errors[0] += 1
+                next_at += 1 / HOST_HZ
+                await asyncio.sleep(max(0.0, next_at - time.monotonic()))
+
+    async def writer() -> None:
+        async with AsyncClient(url, timeout=10.0) as client:
+            speed = 100
+            while time.monotonic() < end:
+                speed = 100 if speed == 200 else 200
+                t = time.perf_counter()
+                await client.set_speed(1, speed)
+                writes.append(time.perf_counter() - t)
+                await asyncio.sleep(WRITE_EVERY)
+
+    await asyncio.gather(*(poller() for _ in range(HOSTS)), writer())
+    return reads, writes, errors[0]
+
+
+async def many_hosts(baud: int, seconds: float) -> None:
+    with _simulator(baud) as sim_url:
+        unit = await _aa_exchange_time(sim_url)
+        async with LineServer(_server_config(sim_url)) as server:
+            line = server.lines["cell"]
+            await line.wait_polled(timeout=30)
+            wire_aas = [0]
+
+            def count(command: Command[Any], outcome: Any, who: object) -> None:
+                if isinstance(command, ReadStatus):
+                    wire_aas[0] += 1
+
+            line.on_exchange(count)
+            host, port = server.faces["n1"].addresses["cell"]  # type: ignore[attr-defined]
+            polls_before = line.model.updates
+            with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn")) as pool:
+                hosts = asyncio.get_running_loop().run_in_executor(
+                    pool, _hosts, f"tcp://{host}:{port}", seconds
+                )
+                reads, writes, errors = await hosts
+            wire = wire_aas[0]
+            updates = line.model.updates - polls_before
+    asked = len(reads) + errors
+    read50, read99 = percentile(reads, 50) / unit, percentile(reads, 99) / unit
+    write50, write99 = percentile(writes, 50) / unit, percentile(writes, 99) / unit
+    print(
+        f"  {baud:>6} baud: AA exchange {unit * 1e3:6.2f} ms;"
+        f" hosts' AA p50 {read50:5.2f}, p99 {read99:5.2f} AA times ({_ms(reads, 99):.1f} ms);"
+        f" write p50 {write50:5.2f}, p99 {write99:5.2f} AA times;"
+        f" {asked / seconds:.0f} host AAs/s, {wire / seconds:.0f} wire AAs/s,"
+        f" coalescing factor {wire / max(1, asked):.3f} wire AA per host AA;"
+        f" model {updates / seconds:.0f} values/s; errors {errors}"
+    )
+
+
+async def main() -> None:
+    seconds = float(sys.argv[1]) if len(sys.argv) > 1 else 5.0
+    await added_latency()
+    print(
+        f"2. {HOSTS} hosts polling AA at {HOST_HZ:g} Hz through the N1 face of one paced line,"
+        f" a CB every {WRITE_EVERY:g} s, {seconds:g} s each"
+    )
+    for baud in (9600, 115200):
+        with contextlib.suppress(KeyboardInterrupt):
+            await many_hosts(baud, seconds)
+
+
+if __name__ == "__main__":
+    asyncio.run(main())

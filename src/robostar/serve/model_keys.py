@@ -1,0 +1,106 @@
+"""Which model key answers which read: the line's reads feed the model, and a read that accepts
+an older value (``max_age``) is answered from it."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from robostar.commands.base import Command
+from robostar.commands.control import ReadSpeed
+from robostar.commands.files import ReadAlarmHistory
+from robostar.commands.io import ReadInputs, ReadOutputs
+from robostar.commands.job import ReadJobName, ReadJobStep
+from robostar.commands.status import ReadAlarms, ReadInfo, ReadPosition, ReadStatus
+from robostar.serve.model import ControllerModel
+from robostar.types import PositionKind
+
+__all__ = ["ModelFeed", "keys_of", "model_key"]
+
+_STATUS_KEYS = tuple(f"ch{n}/status" for n in (1, 2, 3))
+"""AA answers the status of the three channels at once."""
+
+
+def model_key(command: Command[Any]) -> str | None:
+    """The model key that answers ``command`` (a read), or None if the model cannot."""
+    match command:
+        case ReadInfo():
+            return "info"
+        case ReadAlarms():
+            return "alarms"
+        case ReadAlarmHistory():
+            return "alarm_history"
+        case ReadPosition(channel=ch, kind=PositionKind.XY):
+            return f"ch{ch}/position"
+        case ReadPosition(channel=ch, kind=PositionKind.ANGLE):
+            return f"ch{ch}/angles"
+        case ReadSpeed(channel=ch):
+            return f"ch{ch}/speed"
+        case ReadJobName(channel=ch):
+            return f"ch{ch}/job"
+        case ReadJobStep(channel=ch):
+            return f"ch{ch}/step"
+        case ReadInputs(port=port):
+            return f"io/in/{port}"
+        case ReadOutputs(port=port):
+            return f"io/out/{port}"
+    return None
+
+
+def keys_of(command: Command[Any]) -> set[str]:
+    """Every model key ``command``'s answer refreshes (AA: the three channels' status)."""
+    if isinstance(command, ReadStatus):
+        return set(_STATUS_KEYS)
+    key = model_key(command)
+    return set() if key is None else {key}
+
+
+class ModelFeed:
+    """Puts reads' answers into a line's model, and answers reads from it.
+
+    AA answers the status of all three channels; only the channels the controller has
+    (``present``, from its AD answer) are model keys, so that the push faces show no channel it
+    lacks. The others' statuses are kept aside, to answer AA from the model whole."""
+
+    def __init__(self, model: ControllerModel) -> None:
+        self.model = model
+        self.present: tuple[int, ...] = (1, 2, 3)
+        self._absent: dict[str, Any] = {}
+
+    def answer(self, command: Command[Any], max_age: float) -> tuple[Any, float] | None:
+        """The model's answer to ``command`` and its time, if good and at most ``max_age`` old
+        (and newer than the last state change); None when the model cannot answer."""
+        if isinstance(command, ReadStatus):
+            values: list[Any] = []
+            times: list[float] = []
+            for n, key in enumerate(_STATUS_KEYS, start=1):
+                if n not in self.present:
+                    if key not in self._absent:
+                        return None
+                    values.append(self._absent[key])
+                    continue
+                sample = self.model.fresh(key, max_age)
+                if sample is None:
+                    return None
+                values.append(sample.value)
+                times.append(sample.at)
+            return tuple(values), min(times, default=0.0)
+        one = model_key(command)
+        if one is None:
+            return None
+        sample = self.model.fresh(one, max_age)
+        return None if sample is None else (sample.value, sample.at)
+
+    def store(self, command: Command[Any], result: Any, at: float) -> None:
+        """Put ``command``'s answer into the model, stamped ``at`` (NaN: now)."""
+        stamp = None if math.isnan(at) else at
+        if isinstance(command, ReadStatus):
+            for n, (key, status) in enumerate(zip(_STATUS_KEYS, result, strict=False), start=1):
+                if n in self.present:
+                    self.model.set(key, status, stamp)
+                else:
+                    self._absent[key] = status
+            return
+        one = model_key(command)
+        if one is not None:
+            self.model.set(one, result, stamp)
