@@ -49,6 +49,8 @@ def make_setup(root: Path) -> Setup:
             {"commonName": "robostar tests"},
         )
     )
+    # the audit log is opened (in the state directory) before the face makes that directory
+    (root / "state").mkdir(mode=0o700, exist_ok=True)
     return Setup(root / "users.toml", root / "state", root / "cache", cert, key)
 
 
@@ -66,6 +68,7 @@ def config(
     url: str = "sim://?speedup=20",
     poll: float = 0.05,
     slow: float = 1.0,
+    channels: dict[int, str] | None = None,
     **opcua: Any,
 ) -> ServeConfig:
     options: dict[str, Any] = {
@@ -75,7 +78,9 @@ def config(
         "cache_dir": str(setup.cache),
     }
     options.update(opcua)
-    line = LineConfig("cell1", url, poll_interval=poll, slow_interval=slow)
+    line = LineConfig(
+        "cell1", url, poll_interval=poll, slow_interval=slow, channels=dict(channels or {})
+    )
     return ServeConfig(
         lines=(line,), faces={"opcua": options}, audit_path=str(setup.state / "audit.jsonl")
     )
