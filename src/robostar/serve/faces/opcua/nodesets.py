@@ -95,7 +95,8 @@ def _nodes_of(aspace: AddressSpace) -> dict[ua.NodeId, NodeData]:
     """The address space's nodes, through its public mapping methods (``keys`` and item
     access), never its private dictionary: an asyncua release that renames that cannot break
     the cache."""
-    return {nodeid: aspace[nodeid] for nodeid in aspace.keys()}
+    # AddressSpace has keys() but no __iter__
+    return {nodeid: aspace[nodeid] for nodeid in aspace.keys()}  # noqa: SIM118
 
 
 def _fill(aspace: AddressSpace, nodes: dict[ua.NodeId, NodeData]) -> None:
