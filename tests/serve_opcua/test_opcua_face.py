@@ -454,7 +454,7 @@ def test_condition_refresh_replays_each_active_alarm(opcua_setup: Setup) -> None
             line = server.line("cell1")
             model = Model(client)
 
-            async def refresh(expect: int) -> list[tuple[int, bool]]:
+            async def refresh(expect: int) -> list[tuple[int, bool, bool]]:
                 handler = Changes()
                 subscription = await model.refresh_conditions(handler)
 
@@ -465,15 +465,18 @@ def test_condition_refresh_replays_each_active_alarm(opcua_setup: Setup) -> None
                 await asyncio.sleep(0.3)  # anything more the replay would send comes with it
                 await subscription.delete()
                 return sorted(
-                    (e.AlarmCode, e.Retain) for e in handler.events if hasattr(e, "AlarmCode")
+                    (e.AlarmCode, e.Retain, e.Active)
+                    for e in handler.events
+                    if hasattr(e, "AlarmCode")
                 )
 
             line.model.set("alarms", (Alarm(1001, "first"), Alarm(1002, "second")))
             await asyncio.sleep(0.3)
-            assert await refresh(2) == [(1001, True), (1002, True)]
+            assert await refresh(2) == [(1001, True, True), (1002, True, True)]
             line.model.set("alarms", (Alarm(1001, "first"),))
             await asyncio.sleep(0.3)
-            assert await refresh(1) == [(1001, True)]
+            # cleared but not acknowledged: still of interest to an operator (OPC 10000-9)
+            assert await refresh(2) == [(1001, True, True), (1002, True, False)]
 
     run(main())
 

@@ -3,8 +3,9 @@
 ``robostar serve --opcua HOST:PORT`` (or ``[opcua]`` in the config; docs/opcua.md) starts an
 asyncua server with the DI, IA and Robotics nodesets and, under DI's ``DeviceSet``, one
 ``MotionDeviceSystemType`` per line (``address_space.py``). The lines' models fill its
-variables with source timestamps and status codes, and alarms become events
-(``publisher.py``); ``Start``, ``Stop``, ``LoadByName`` and a vendor ``EmergencyStop`` go
+variables with source timestamps and status codes (``publisher.py``), and alarms become
+OPC UA alarm conditions with Acknowledge, Confirm and shelving (``conditions.py``);
+``Start``, ``Stop``, ``LoadByName`` and a vendor ``EmergencyStop`` go
 through the line's lease and audit for operators only (``methods.py``).
 
 Security by default (``security.py``): Basic256Sha256 endpoints only (Sign, SignAndEncrypt),
@@ -38,6 +39,7 @@ from robostar.serve.faces.opcua.address_space import (
     build_line,
     namespaces,
 )
+from robostar.serve.faces.opcua.conditions import AlarmConditions, ConditionMethods
 from robostar.serve.faces.opcua.methods import handler_for
 from robostar.serve.faces.opcua.nodesets import CachedInternalServer, LoadReport
 from robostar.serve.faces.opcua.publisher import ALARM_EVENT_FIELDS, NodeWriter
@@ -71,6 +73,9 @@ class OpcUaFace:
         self.ns: Namespaces | None = None
         self.devices: dict[str, DeviceNodes] = {}
         self.publishers: dict[str, NodeWriter] = {}
+        self.conditions: dict[str, AlarmConditions] = {}
+        """Each line's alarm conditions: kept when its nodes are made again."""
+        self._condition_methods = ConditionMethods()
         self.tasks: set[asyncio.Task[Any]] = set()
         self.load = LoadReport()
         self.startup_seconds = 0.0
@@ -142,6 +147,7 @@ class OpcUaFace:
             list(ALARM_EVENT_FIELDS),
         )
         self._event_type = event_type.nodeid
+        self._condition_methods.bind(server)
         for line in self.server.lines.values():
             await self._build(line)
         await server.start()
@@ -215,7 +221,15 @@ class OpcUaFace:
                 self.ua.link_method(node, handler_for(line, name, channel))
         events = EventGenerator(self.ua.iserver.isession)
         await events.init(self._event_type, emitting_node=nodes.system.nodeid)
-        publisher = NodeWriter(self.ua, nodes, events, self.ns.robotics, self.ns.vendor)
+        conditions = self.conditions.get(line.name)
+        if conditions is None:
+            conditions = AlarmConditions(
+                self.ua, line.name, self.ns.vendor, self._event_type, line.record
+            )
+            self.conditions[line.name] = conditions
+            self._condition_methods.lines.append(conditions)
+        await conditions.attach(events, nodes.system.nodeid)
+        publisher = NodeWriter(self.ua, nodes, conditions, self.ns.robotics, self.ns.vendor)
         await publisher.waiting()
         if line.model.get("online") is None:
             await publisher.show_online(line.up)
@@ -293,6 +307,8 @@ class OpcUaFace:
             with contextlib.suppress(asyncio.CancelledError, Exception):
                 await task
         self.tasks.clear()
+        for conditions in self.conditions.values():
+            conditions.close()
         server, self.ua = self.ua, None
         if server is not None and server.bserver is not None:
             await server.stop()
