@@ -32,7 +32,7 @@ from asyncua.server.server import Server
 from robostar.commands.base import Command
 from robostar.commands.variables import ReadGlobalFloat, ReadGlobalInt
 from robostar.errors import RobostarError, UsageError
-from robostar.serve.faces.opcua._ua import ObjectIds, UaStatusCodeError
+from robostar.serve.faces.opcua._ua import AttributeIds, ObjectIds, UaStatusCodeError
 from robostar.serve.faces.opcua.address_space import (
     DeviceNodes,
     Namespaces,
@@ -49,6 +49,7 @@ from robostar.serve.faces.opcua.security import (
     UsersManager,
     ensure_certificate,
 )
+from robostar.serve.faces.opcua.setpoints import SetpointAttributeService, speed_setter
 from robostar.serve.faces.opcua.settings import OpcUaSettings, settings_from
 from robostar.serve.model import Sample
 from robostar.serve.users import UserStore
@@ -81,6 +82,8 @@ class OpcUaFace:
         self.startup_seconds = 0.0
         """Wall time of start(): address space, certificate, the lines' nodes, listening."""
         self._event_type: ua.NodeId | None = None
+        self._setpoints: SetpointAttributeService | None = None
+        self._setpoint_nodes: dict[str, list[ua.NodeId]] = {}
 
     @property
     def address(self) -> str:
@@ -116,6 +119,8 @@ class OpcUaFace:
         await server.init()
         self.load = await iserver.load_nodesets(server)
         self.load.seconds = time.perf_counter() - space_started
+        self._setpoints = SetpointAttributeService(iserver.aspace)
+        iserver.attribute_service = self._setpoints  # clients' writes go to the setpoints
         server.set_endpoint(s.endpoint)
         server.set_server_name("robostar serve")
         server.product_uri = "urn:robostar"
@@ -219,6 +224,7 @@ class OpcUaFace:
         for channel, ch in nodes.channels.items():
             for name, node in ch.methods.items():
                 self.ua.link_method(node, handler_for(line, name, channel))
+        await self._writable(line, nodes)
         events = EventGenerator(self.ua.iserver.isession)
         await events.init(self._event_type, emitting_node=nodes.system.nodeid)
         conditions = self.conditions.get(line.name)
@@ -234,6 +240,23 @@ class OpcUaFace:
         if line.model.get("online") is None:
             await publisher.show_online(line.up)
         self.publishers[line.name] = publisher
+
+    async def _writable(self, line: Line, nodes: DeviceNodes) -> None:
+        """The line's setpoints (each channel's SpeedOverride) take operators' writes."""
+        assert self._setpoints is not None
+        setters = self._setpoints.setters
+        for old in self._setpoint_nodes.pop(line.name, []):
+            setters.pop(old, None)
+        mine = self._setpoint_nodes[line.name] = []
+        writable = ua.AccessLevel.CurrentRead.mask | ua.AccessLevel.CurrentWrite.mask
+        for channel, ch in nodes.channels.items():
+            speed = ch.values["speed"]
+            setters[speed.nodeid] = speed_setter(line, channel)
+            mine.append(speed.nodeid)
+            for attribute in (AttributeIds.AccessLevel, AttributeIds.UserAccessLevel):
+                await speed.write_attribute(
+                    attribute, ua.DataValue(ua.Variant(writable, ua.VariantType.Byte))
+                )
 
     async def _rebuild(self, line: Line) -> None:
         """The line came up after the face started: its channels and axes are known now.
