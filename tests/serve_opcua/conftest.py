@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import shutil
 from collections.abc import AsyncIterator, Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -51,6 +52,10 @@ def make_setup(root: Path) -> Setup:
     )
     # the audit log is opened (in the state directory) before the face makes that directory
     (root / "state").mkdir(mode=0o700, exist_ok=True)
+    # the tests' client application is a known one: its certificate is in the trust list
+    trusted = root / "state" / "pki" / "trusted"
+    trusted.mkdir(parents=True)
+    shutil.copy(cert, trusted / cert.name)
     return Setup(root / "users.toml", root / "state", root / "cache", cert, key)
 
 

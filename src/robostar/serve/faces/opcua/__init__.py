@@ -9,9 +9,10 @@ OPC UA alarm conditions with Acknowledge, Confirm and shelving (``conditions.py`
 through the line's lease and audit for operators only (``methods.py``).
 
 Security by default (``security.py``): Basic256Sha256 endpoints only (Sign, SignAndEncrypt),
-a self-signed application certificate made on first start and kept, users from the line
-server's users file; no anonymous access and no unsigned endpoint unless
-``allow_anonymous_read`` (loopback only), which adds a read-only one for local tools.
+a self-signed application certificate made on first start and kept, client applications from a
+trust list (``trust.py``), users from the line server's users file; no anonymous access and
+no unsigned endpoint unless ``allow_anonymous_read`` (loopback only), which adds a read-only one
+for local tools.
 """
 
 from __future__ import annotations
@@ -51,6 +52,7 @@ from robostar.serve.faces.opcua.security import (
 )
 from robostar.serve.faces.opcua.setpoints import SetpointAttributeService, speed_setter
 from robostar.serve.faces.opcua.settings import OpcUaSettings, settings_from
+from robostar.serve.faces.opcua.trust import ClientTrustList
 from robostar.serve.model import Sample
 from robostar.serve.users import UserStore
 
@@ -143,6 +145,9 @@ class OpcUaFace:
             permission_ruleset=RoleRuleset(self.users, secure=False),
         )
         server.set_identity_tokens(tokens)
+        server.set_certificate_validator(
+            ClientTrustList(s.pki, accept_unknown=s.accept_unknown_clients)
+        )
         self.ua = server
         self.ns = await namespaces(server)
         event_type = await server.create_custom_event_type(
