@@ -198,6 +198,19 @@ class Model:
         )
 
 
+async def read_values(client: Client, nodes: list[Node], max_age_ms: float) -> list[ua.DataValue]:
+    """One Read request for the values of ``nodes`` with OPC UA's ``maxAge`` (asyncua's
+    ``read_value`` always asks 0: the value as it is now)."""
+    params = ua.ReadParameters()
+    params.MaxAge = max_age_ms
+    for node in nodes:
+        item = ua.ReadValueId()
+        item.NodeId = node.nodeid
+        item.AttributeId = ua.AttributeIds.Value
+        params.NodesToRead.append(item)
+    return list(await client.uaclient.read(params))
+
+
 async def until(predicate: Any, timeout: float = 10.0, what: str = "condition") -> None:
     """Wait for an async predicate to hold (polled; the machine may be slow, never a race)."""
     loop = asyncio.get_running_loop()

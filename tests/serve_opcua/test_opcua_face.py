@@ -31,7 +31,7 @@ from robostar.sim import SimConfig, VirtualController
 from robostar.sim.listeners import SimServer
 from robostar.types import Alarm, CoordSystem, MotionType, PositionKind
 
-from .conftest import PASSWORDS, Model, Setup, connect, serving, until
+from .conftest import PASSWORDS, Model, Setup, connect, read_values, serving, until
 
 pytestmark = pytest.mark.timeout(120)
 
@@ -315,7 +315,9 @@ def test_values_carry_the_models_quality(opcua_setup: Setup) -> None:
             node = await Model(client).axis_position(1, 1)
 
             async def status_is(name: str) -> bool:
-                data = await node.read_data_value(raise_on_bad_status=False)
+                # a read that accepts the model's value, whatever its age (maxAge 0 would read
+                # the line and show its answer instead)
+                (data,) = await read_values(client, [node], 3_600_000)
                 return data.StatusCode.value == getattr(ua.StatusCodes, name)
 
             await until(lambda: status_is("Good"), what="Good")

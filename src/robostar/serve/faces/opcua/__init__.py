@@ -25,6 +25,7 @@ from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
 from asyncua import ua
+from asyncua.common.callback import CallbackType
 from asyncua.common.node import Node
 from asyncua.crypto.security_policies import SecurityPolicyFactory, SecurityPolicyNone
 from asyncua.server.event_generator import EventGenerator
@@ -44,6 +45,7 @@ from robostar.serve.faces.opcua.conditions import AlarmConditions, ConditionMeth
 from robostar.serve.faces.opcua.methods import handler_for
 from robostar.serve.faces.opcua.nodesets import CachedInternalServer, LoadReport
 from robostar.serve.faces.opcua.publisher import ALARM_EVENT_FIELDS, NodeWriter
+from robostar.serve.faces.opcua.reads import FreshReads
 from robostar.serve.faces.opcua.security import (
     RefuseAllRuleset,
     RoleRuleset,
@@ -86,6 +88,8 @@ class OpcUaFace:
         self._event_type: ua.NodeId | None = None
         self._setpoints: SetpointAttributeService | None = None
         self._setpoint_nodes: dict[str, list[ua.NodeId]] = {}
+        self.reads = FreshReads(self.publishers.get)
+        """Clients' Reads brought up to their maxAge (reads.py)."""
 
     @property
     def address(self) -> str:
@@ -123,6 +127,7 @@ class OpcUaFace:
         self.load.seconds = time.perf_counter() - space_started
         self._setpoints = SetpointAttributeService(iserver.aspace)
         iserver.attribute_service = self._setpoints  # clients' writes go to the setpoints
+        server.subscribe_server_callback(CallbackType.PreRead, self.reads.before_read)
         server.set_endpoint(s.endpoint)
         server.set_server_name("robostar serve")
         server.product_uri = "urn:robostar"
@@ -245,6 +250,7 @@ class OpcUaFace:
         if line.model.get("online") is None:
             await publisher.show_online(line.up)
         self.publishers[line.name] = publisher
+        self.reads.register(line, nodes)
 
     async def _writable(self, line: Line, nodes: DeviceNodes) -> None:
         """The line's setpoints (each channel's SpeedOverride) take operators' writes."""

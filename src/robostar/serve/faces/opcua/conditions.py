@@ -141,8 +141,6 @@ class AlarmConditions:
         self._template: Any = None
         self.source: ua.NodeId | None = None
         self.events_sent = 0
-        self.on_event: Callable[[int, str], None] | None = None
-        """Called after each event (code, why): for the bench's timing."""
 
     async def attach(self, events: EventGenerator, source: ua.NodeId) -> None:
         """Emit from ``events`` (made for the line's system node ``source``), and point
@@ -379,8 +377,6 @@ class AlarmConditions:
         self.events_sent += 1
         if not condition.retained:
             await self._forget(condition)
-        if self.on_event is not None:
-            self.on_event(alarm.code, why)
 
     async def _forget(self, condition: _Condition) -> None:
         """A condition of no more interest (inactive, acknowledged, confirmed): its nodes go

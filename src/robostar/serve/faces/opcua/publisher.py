@@ -77,6 +77,7 @@ class NodeWriter:
         self._running: dict[int, bool] = {}
         self.writes = 0
         self._globals: dict[str, Sample] = {}
+        self._shown: dict[str, Sample] = {}
 
     # -- writing -----------------------------------------------------------------------------
     async def _write(
@@ -120,6 +121,7 @@ class NodeWriter:
 
     async def apply(self, key: str, sample: Sample) -> None:
         """Show one model key's new sample (unknown keys are ignored)."""
+        self._shown[key] = sample
         value = sample.value
         nodes = self.nodes
         if key.startswith("ch") and "/" in key:
@@ -148,6 +150,10 @@ class NodeWriter:
             if node is not None:
                 contacts = list(value.contacts)
                 await self._write(node, contacts, ua.VariantType.Boolean, sample)
+
+    def last(self, key: str) -> Sample | None:
+        """The sample of ``key`` the nodes show (None: none yet)."""
+        return self._shown.get(key)
 
     async def stale(self, key: str) -> None:
         """A global variable could not be read: its last value stays, marked uncertain."""
