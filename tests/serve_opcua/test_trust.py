@@ -116,3 +116,16 @@ def test_the_rejected_folder_is_bounded(tmp_path: Path) -> None:
     with pytest.raises(ua.UaStatusCodeError):
         asyncio.run(trust(_certificate((-1, 1)), ua.ApplicationDescription()))
     assert len(list((tmp_path / "pki" / "rejected").iterdir())) == MAX_REJECTED + 5
+
+
+def test_the_trust_settings_are_checked(opcua_setup: Setup) -> None:
+    from robostar.errors import UsageError
+    from robostar.serve.faces.opcua import settings_from
+
+    users = str(opcua_setup.users)
+    with pytest.raises(UsageError, match="pki_dir"):
+        settings_from({"users": users, "pki_dir": 3})
+    with pytest.raises(UsageError, match="accept_unknown_clients"):
+        settings_from({"users": users, "accept_unknown_clients": "yes"})
+    settings = settings_from({"users": users, "state_dir": "/srv/opcua"})
+    assert settings.pki == Path("/srv/opcua/pki") and not settings.accept_unknown_clients
