@@ -186,3 +186,27 @@ def test_shelving_hides_an_alarm_for_a_time_or_until_it_clears(opcua_setup: Setu
             await subscription.delete()
 
     asyncio.run(main())
+
+
+def test_an_operator_comments_on_an_alarm(opcua_setup: Setup) -> None:
+    add_comment = ua.NodeId(ua.ObjectIds.ConditionType_AddComment)
+
+    async def main() -> None:
+        async with (
+            serving(opcua_setup, poll=30.0) as server,
+            connect(server, opcua_setup) as client,
+        ):
+            handler = Events()
+            subscription = await subscribe(client, handler)
+            server.line("cell1").model.set("alarms", (Alarm(1003, "gripper"),))
+            raised = await handler.next_of(1003, 0, "the alarm's event")
+            condition = client.get_node(field(raised, "NodeId"))
+            assert (await call(condition, add_comment, *ack_args(raised, "on my way"))).is_good()
+            commented = await handler.next_of(1003, 1, "the comment's event")
+            assert text(field(commented, "Comment")) == "on my way"
+            assert field(commented, "AckedState/Id") is False  # a comment acknowledges nothing
+            stale = await call(condition, add_comment, *ack_args(raised, "again"))
+            assert stale.value == ua.StatusCodes.BadEventIdUnknown
+            await subscription.delete()
+
+    asyncio.run(main())

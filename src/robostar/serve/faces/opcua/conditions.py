@@ -9,7 +9,7 @@ system node carrying the whole state, as SCADA alarm lists expect of a PLC:
   ``Retain`` true;
 - an operator acknowledges it (``Acknowledge(EventId, Comment)``, the type's well-known method,
   called on the condition) and then confirms it (``Confirm``); ``Retain`` stays true until the
-  alarm is inactive, acknowledged and confirmed;
+  alarm is inactive, acknowledged and confirmed; ``AddComment`` adds a comment at any time;
 - the controller clears it (a reset, CE, or the cause gone): ``ActiveState`` false;
 - shelving (``ShelvingState``'s ``TimedShelve(ms)``, ``OneShotShelve``, ``Unshelve``): a shelved
   condition's events say ``SuppressedOrShelved``, for alarm lists that hide them; a one-shot
@@ -212,6 +212,17 @@ class AlarmConditions:
         self._comment(condition, who, comment)
         self.record(self._what("Confirm", condition), who, "ok")
         await self._emit(condition, f"confirmed by {who.name}")
+        return []
+
+    async def add_comment(self, condition: _Condition, event_id: Any, comment: Any) -> Any:
+        who = self._operator("AddComment", condition)
+        if isinstance(who, ua.StatusCode):
+            return who
+        if not self._names_last_event(condition, event_id):
+            return self._refuse("AddComment", condition, who, "BadEventIdUnknown")
+        self._comment(condition, who, comment)
+        self.record(self._what("AddComment", condition), who, "ok")
+        await self._emit(condition, f"comment by {who.name}")
         return []
 
     async def shelve(self, condition: _Condition, how: str, milliseconds: Any = None) -> Any:
@@ -434,6 +445,7 @@ class ConditionMethods:
         table: list[tuple[tuple[int, ...], Callable[..., Any]]] = [
             ((o.AcknowledgeableConditionType_Acknowledge,), self._acknowledge),
             ((o.AcknowledgeableConditionType_Confirm,), self._confirm),
+            ((o.ConditionType_AddComment,), self._add_comment),
             (
                 (
                     o.ShelvedStateMachineType_TimedShelve,
@@ -475,6 +487,12 @@ class ConditionMethods:
         if found is None or len(args) != 2:
             return _code("BadNodeIdUnknown" if found is None else "BadArgumentsMissing")
         return await found[0].confirm(found[1], *args)
+
+    async def _add_comment(self, parent: ua.NodeId, *args: Any) -> Any:
+        found = self._find(parent)
+        if found is None or len(args) != 2:
+            return _code("BadNodeIdUnknown" if found is None else "BadArgumentsMissing")
+        return await found[0].add_comment(found[1], *args)
 
     async def _timed(self, parent: ua.NodeId, *args: Any) -> Any:
         found = self._find(parent)
