@@ -1,6 +1,7 @@
 """A channel's configured label is what people read (DisplayName, ComponentName), never part of
 a browse path: clients' paths name ``Channel<n>`` whatever the channel is called, so renaming a
-channel in the configuration breaks no SCADA tag."""
+channel in the configuration breaks no SCADA tag. A configured channel the controller does not
+have is not shown."""
 
 from __future__ import annotations
 
@@ -48,5 +49,19 @@ def test_an_unlabelled_channel_is_shown_by_its_number(opcua_setup: Setup) -> Non
         async with serving(opcua_setup) as server, connect(server, opcua_setup) as client:
             device = await Model(client).path("rob:MotionDevices", "ven:Channel1")
             assert (await device.read_display_name()).Text == "Channel1"
+
+    asyncio.run(main())
+
+
+def test_a_configured_channel_the_controller_lacks_is_not_shown(opcua_setup: Setup) -> None:
+    async def main() -> None:
+        # the simulator has channels 1 and 2
+        async with (
+            serving(opcua_setup, channels={1: "loader", 3: "nowhere"}) as server,
+            connect(server, opcua_setup) as client,
+        ):
+            devices = await Model(client).path("rob:MotionDevices")
+            names = [(await d.read_browse_name()).Name for d in await devices.get_children()]
+            assert names == ["Channel1"]
 
     asyncio.run(main())

@@ -222,7 +222,7 @@ class OpcUaFace:
             self.ns,
             line.name,
             line.info,
-            line.channels(),
+            shown_channels(line),
             line.config.io_ports,
             dict(line.config.channels),
             self.settings.global_ints,
@@ -346,6 +346,17 @@ class OpcUaFace:
         server, self.ua = self.ua, None
         if server is not None and server.bserver is not None:
             await server.stop()
+
+
+def shown_channels(line: Line) -> tuple[int, ...]:
+    """The line's channels (configured, else the controller's) that the controller has: a
+    channel configured for a controller without it would show only empty values. Before the
+    controller has answered, the configured ones (the nodes are made again once it has)."""
+    channels = line.channels()
+    if line.info is None:
+        return channels
+    present = {c.channel for c in line.info.channels if c.axes_in_use}
+    return tuple(c for c in channels if c in present) or channels
 
 
 def _report_end(task: asyncio.Task[Any]) -> None:
