@@ -21,9 +21,10 @@ HOUR_MS = 3_600_000.0
 
 def test_max_age_zero_reads_the_line_and_a_larger_one_the_model(opcua_setup: Setup) -> None:
     async def main() -> None:
-        # a slow poller: the model keeps what the test puts in it, as a sample taken earlier
+        # a slow poller (the speed is read in its slow cycle): the model keeps what the test
+        # puts in it, as a sample taken earlier
         async with (
-            serving(opcua_setup, poll=30.0) as server,
+            serving(opcua_setup, poll=100.0, slow=100.0) as server,
             connect(server, opcua_setup) as client,
         ):
             line = server.line("cell1")
@@ -50,9 +51,11 @@ def test_max_age_zero_reads_the_line_and_a_larger_one_the_model(opcua_setup: Set
             assert _seconds(fresh.SourceTimestamp) >= asked - 0.001  # read after it was asked
             assert face.reads.line_reads == reads + 1
 
-            # younger than the sample: the line again
-            (younger,) = await read_values(client, [speed], 1.0)
-            assert younger.Value.Value == real and face.reads.line_reads == reads + 2
+            # a maxAge younger than the sample: the line again
+            await asyncio.sleep(0.05)
+            (younger,) = await read_values(client, [speed], 10.0)
+            assert younger.Value.Value == real
+            assert face.reads.line_reads == reads + 2
 
     asyncio.run(main())
 
