@@ -6,7 +6,11 @@
       source timestamp to its arrival: the face plus the subscription);
    c. a speed change acknowledged by the simulator -> SpeedOverride's notification (the
       poll the write triggers, the face and the subscription).
-2. Startup, each in a fresh process: cold (no certificate, no nodeset cache: the key is made
+2. Alarms as conditions: an alarm in the line's model -> the subscriber's event; an
+   Acknowledge call's round trip, and the call -> the acknowledgement's event.
+3. Reads: a Read of SpeedOverride accepting any age (maxAge one hour: the model's sample) and
+   one asking maxAge 0 (a CB read on the line, through its queue).
+4. Startup, each in a fresh process: cold (no certificate, no nodeset cache: the key is made
    and the nodesets imported) and cached (both kept from the cold run).
 """
 
@@ -24,8 +28,16 @@ from collections.abc import AsyncIterator
 from pathlib import Path
 from typing import Any
 
-from asyncua import Client
-from tests.serve_opcua.conftest import PASSWORDS, Model, Setup, connect, make_setup, serving
+from asyncua import Client, ua
+from tests.serve_opcua.conftest import (
+    PASSWORDS,
+    Model,
+    Setup,
+    connect,
+    make_setup,
+    read_values,
+    serving,
+)
 
 from bench.measure import percentile
 from robostar.commands.control import SetSpeed
@@ -33,7 +45,7 @@ from robostar.commands.motion import Home, Move
 from robostar.serve import LineConfig, LineServer, ServeConfig
 from robostar.serve.lease import Who
 from robostar.serve.users import Role, UserStore
-from robostar.types import CoordSystem, MotionType
+from robostar.types import Alarm, CoordSystem, MotionType
 
 BENCH = Who("bench", "cli")
 
@@ -130,6 +142,84 @@ async def moving_to_subscriber(setup: Setup, seconds: float = 10.0) -> None:
     _report("speed write acknowledged -> notification", speeds)
 
 
+class _Events:
+    def __init__(self) -> None:
+        self.got: list[tuple[float, Any]] = []
+
+    def event_notification(self, event: Any) -> None:
+        self.got.append((time.perf_counter(), event))
+
+    async def next_after(self, count: int) -> tuple[float, Any]:
+        while len(self.got) <= count:
+            await asyncio.sleep(0.0005)
+        return self.got[count]
+
+
+async def alarms_as_conditions(setup: Setup, n: int = 100) -> None:
+    """Alarm -> event, and Acknowledge's round trip, on the line's model (no poll involved)."""
+    acknowledge = ua.NodeId(ua.ObjectIds.AcknowledgeableConditionType_Acknowledge)
+    async with (
+        serving(setup, url="sim://", poll=100.0, slow=100.0) as server,
+        connect(server, setup) as client,
+    ):
+        model = Model(client)
+        events = _Events()
+        subscription = await client.create_subscription(0, events)
+        await subscription.subscribe_alarms_and_conditions(
+            await model.system(), await model.alarm_event_type()
+        )
+        await asyncio.sleep(0.3)
+        line_model = server.line("cell1").model
+        raised, calls, acked = [], [], []
+        for k in range(n):
+            code = 2000 + k
+            count = len(events.got)
+            sent = time.perf_counter()
+            line_model.set("alarms", (Alarm(code, "bench"),))
+            arrived, event = await events.next_after(count)
+            while getattr(event, "AlarmCode", None) != code:  # the last one's clearing first
+                count += 1
+                arrived, event = await events.next_after(count)
+            raised.append(arrived - sent)
+            count = len(events.got)
+            condition = client.get_node(event.NodeId)
+            began = time.perf_counter()
+            await condition.call_method(
+                acknowledge,
+                ua.Variant(event.EventId, ua.VariantType.ByteString),
+                ua.Variant(ua.LocalizedText("bench"), ua.VariantType.LocalizedText),
+            )
+            calls.append(time.perf_counter() - began)
+            arrived, _ = await events.next_after(count)
+            acked.append(arrived - began)
+        await subscription.delete()
+    _report("alarm in the model -> condition event", raised)
+    _report("Acknowledge call round trip", calls)
+    _report("Acknowledge call -> acknowledged event", acked)
+
+
+async def reads_by_max_age(setup: Setup, n: int = 200) -> None:
+    """A Read accepting the model's sample against one asking the line (maxAge 0)."""
+    async with (
+        serving(setup, url="sim://", poll=0.2) as server,
+        connect(server, setup) as client,
+    ):
+        speed = await _speed_override(client)
+        face: Any = server.faces["opcua"]
+        await read_values(client, [speed], 0)
+        for label, max_age in (
+            ("Read, maxAge 1 h (the model)", 3_600_000.0),
+            ("Read, maxAge 0 (the line)", 0.0),
+        ):
+            times = []
+            before = face.reads.line_reads
+            for _ in range(n):
+                began = time.perf_counter()
+                await read_values(client, [speed], max_age)
+                times.append(time.perf_counter() - began)
+            _report(f"{label}, {face.reads.line_reads - before} line reads", times)
+
+
 def startup(root: Path, runs: int = 3) -> None:
     """Each start in a process of its own: imports, address space, certificate, nodes."""
     for label, fresh in (("cold (new key, nodesets imported)", True), ("cached", False)):
@@ -200,6 +290,8 @@ def main() -> int:
         print("OPC UA face (asyncua client, Basic256Sha256 SignAndEncrypt, 2 shared cores):")
         asyncio.run(model_to_subscriber(setup, n=100 if args.quick else 300))
         asyncio.run(moving_to_subscriber(setup, seconds=4.0 if args.quick else 10.0))
+        asyncio.run(alarms_as_conditions(setup, n=30 if args.quick else 100))
+        asyncio.run(reads_by_max_age(setup, n=50 if args.quick else 200))
         startup(root, runs=1 if args.quick else 3)
     return 0
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import shutil
 from collections.abc import AsyncIterator, Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -49,6 +50,12 @@ def make_setup(root: Path) -> Setup:
             {"commonName": "robostar tests"},
         )
     )
+    # the audit log is opened (in the state directory) before the face makes that directory
+    (root / "state").mkdir(mode=0o700, exist_ok=True)
+    # the tests' client application is a known one: its certificate is in the trust list
+    trusted = root / "state" / "pki" / "trusted"
+    trusted.mkdir(parents=True)
+    shutil.copy(cert, trusted / cert.name)
     return Setup(root / "users.toml", root / "state", root / "cache", cert, key)
 
 
@@ -66,6 +73,7 @@ def config(
     url: str = "sim://?speedup=20",
     poll: float = 0.05,
     slow: float = 1.0,
+    channels: dict[int, str] | None = None,
     **opcua: Any,
 ) -> ServeConfig:
     options: dict[str, Any] = {
@@ -75,7 +83,9 @@ def config(
         "cache_dir": str(setup.cache),
     }
     options.update(opcua)
-    line = LineConfig("cell1", url, poll_interval=poll, slow_interval=slow)
+    line = LineConfig(
+        "cell1", url, poll_interval=poll, slow_interval=slow, channels=dict(channels or {})
+    )
     return ServeConfig(
         lines=(line,), faces={"opcua": options}, audit_path=str(setup.state / "audit.jsonl")
     )
@@ -186,6 +196,19 @@ class Model:
             "rob:TaskControlOperation",
             "rob:TaskControlStateMachine",
         )
+
+
+async def read_values(client: Client, nodes: list[Node], max_age_ms: float) -> list[ua.DataValue]:
+    """One Read request for the values of ``nodes`` with OPC UA's ``maxAge`` (asyncua's
+    ``read_value`` always asks 0: the value as it is now)."""
+    params = ua.ReadParameters()
+    params.MaxAge = max_age_ms
+    for node in nodes:
+        item = ua.ReadValueId()
+        item.NodeId = node.nodeid
+        item.AttributeId = ua.AttributeIds.Value
+        params.NodesToRead.append(item)
+    return list(await client.uaclient.read(params))
 
 
 async def until(predicate: Any, timeout: float = 10.0, what: str = "condition") -> None:

@@ -3,14 +3,16 @@
 ``robostar serve --opcua HOST:PORT`` (or ``[opcua]`` in the config; docs/opcua.md) starts an
 asyncua server with the DI, IA and Robotics nodesets and, under DI's ``DeviceSet``, one
 ``MotionDeviceSystemType`` per line (``address_space.py``). The lines' models fill its
-variables with source timestamps and status codes, and alarms become events
-(``publisher.py``); ``Start``, ``Stop``, ``LoadByName`` and a vendor ``EmergencyStop`` go
+variables with source timestamps and status codes (``publisher.py``), and alarms become
+OPC UA alarm conditions with Acknowledge, Confirm and shelving (``conditions.py``);
+``Start``, ``Stop``, ``LoadByName`` and a vendor ``EmergencyStop`` go
 through the line's lease and audit for operators only (``methods.py``).
 
 Security by default (``security.py``): Basic256Sha256 endpoints only (Sign, SignAndEncrypt),
-a self-signed application certificate made on first start and kept, users from the line
-server's users file; no anonymous access and no unsigned endpoint unless
-``allow_anonymous_read`` (loopback only), which adds a read-only one for local tools.
+a self-signed application certificate made on first start and kept, client applications from a
+trust list (``trust.py``), users from the line server's users file; no anonymous access and
+no unsigned endpoint unless ``allow_anonymous_read`` (loopback only), which adds a read-only one
+for local tools.
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
 from asyncua import ua
+from asyncua.common.callback import CallbackType
 from asyncua.common.node import Node
 from asyncua.crypto.security_policies import SecurityPolicyFactory, SecurityPolicyNone
 from asyncua.server.event_generator import EventGenerator
@@ -31,23 +34,27 @@ from asyncua.server.server import Server
 from robostar.commands.base import Command
 from robostar.commands.variables import ReadGlobalFloat, ReadGlobalInt
 from robostar.errors import RobostarError, UsageError
-from robostar.serve.faces.opcua._ua import ObjectIds, UaStatusCodeError
+from robostar.serve.faces.opcua._ua import AttributeIds, ObjectIds, UaStatusCodeError
 from robostar.serve.faces.opcua.address_space import (
     DeviceNodes,
     Namespaces,
     build_line,
     namespaces,
 )
+from robostar.serve.faces.opcua.conditions import AlarmConditions, ConditionMethods
 from robostar.serve.faces.opcua.methods import handler_for
 from robostar.serve.faces.opcua.nodesets import CachedInternalServer, LoadReport
 from robostar.serve.faces.opcua.publisher import ALARM_EVENT_FIELDS, NodeWriter
+from robostar.serve.faces.opcua.reads import FreshReads
 from robostar.serve.faces.opcua.security import (
     RefuseAllRuleset,
     RoleRuleset,
     UsersManager,
     ensure_certificate,
 )
+from robostar.serve.faces.opcua.setpoints import SetpointAttributeService, speed_setter
 from robostar.serve.faces.opcua.settings import OpcUaSettings, settings_from
+from robostar.serve.faces.opcua.trust import ClientTrustList
 from robostar.serve.model import Sample
 from robostar.serve.users import UserStore
 
@@ -71,11 +78,18 @@ class OpcUaFace:
         self.ns: Namespaces | None = None
         self.devices: dict[str, DeviceNodes] = {}
         self.publishers: dict[str, NodeWriter] = {}
+        self.conditions: dict[str, AlarmConditions] = {}
+        """Each line's alarm conditions: kept when its nodes are made again."""
+        self._condition_methods = ConditionMethods()
         self.tasks: set[asyncio.Task[Any]] = set()
         self.load = LoadReport()
         self.startup_seconds = 0.0
         """Wall time of start(): address space, certificate, the lines' nodes, listening."""
         self._event_type: ua.NodeId | None = None
+        self._setpoints: SetpointAttributeService | None = None
+        self._setpoint_nodes: dict[str, list[ua.NodeId]] = {}
+        self.reads = FreshReads(self.publishers.get)
+        """Clients' Reads brought up to their maxAge (reads.py)."""
 
     @property
     def address(self) -> str:
@@ -111,6 +125,9 @@ class OpcUaFace:
         await server.init()
         self.load = await iserver.load_nodesets(server)
         self.load.seconds = time.perf_counter() - space_started
+        self._setpoints = SetpointAttributeService(iserver.aspace)
+        iserver.attribute_service = self._setpoints  # clients' writes go to the setpoints
+        server.subscribe_server_callback(CallbackType.PreRead, self.reads.before_read)
         server.set_endpoint(s.endpoint)
         server.set_server_name("robostar serve")
         server.product_uri = "urn:robostar"
@@ -133,6 +150,9 @@ class OpcUaFace:
             permission_ruleset=RoleRuleset(self.users, secure=False),
         )
         server.set_identity_tokens(tokens)
+        server.set_certificate_validator(
+            ClientTrustList(s.pki, accept_unknown=s.accept_unknown_clients)
+        )
         self.ua = server
         self.ns = await namespaces(server)
         event_type = await server.create_custom_event_type(
@@ -142,6 +162,7 @@ class OpcUaFace:
             list(ALARM_EVENT_FIELDS),
         )
         self._event_type = event_type.nodeid
+        self._condition_methods.bind(server)
         for line in self.server.lines.values():
             await self._build(line)
         await server.start()
@@ -201,7 +222,7 @@ class OpcUaFace:
             self.ns,
             line.name,
             line.info,
-            line.channels(),
+            shown_channels(line),
             line.config.io_ports,
             dict(line.config.channels),
             self.settings.global_ints,
@@ -213,13 +234,40 @@ class OpcUaFace:
         for channel, ch in nodes.channels.items():
             for name, node in ch.methods.items():
                 self.ua.link_method(node, handler_for(line, name, channel))
+        await self._writable(line, nodes)
         events = EventGenerator(self.ua.iserver.isession)
         await events.init(self._event_type, emitting_node=nodes.system.nodeid)
-        publisher = NodeWriter(self.ua, nodes, events, self.ns.robotics, self.ns.vendor)
+        conditions = self.conditions.get(line.name)
+        if conditions is None:
+            conditions = AlarmConditions(
+                self.ua, line.name, self.ns.vendor, self._event_type, line.record
+            )
+            self.conditions[line.name] = conditions
+            self._condition_methods.lines.append(conditions)
+        await conditions.attach(events, nodes.system.nodeid)
+        publisher = NodeWriter(self.ua, nodes, conditions, self.ns.robotics, self.ns.vendor)
         await publisher.waiting()
         if line.model.get("online") is None:
             await publisher.show_online(line.up)
         self.publishers[line.name] = publisher
+        self.reads.register(line, nodes)
+
+    async def _writable(self, line: Line, nodes: DeviceNodes) -> None:
+        """The line's setpoints (each channel's SpeedOverride) take operators' writes."""
+        assert self._setpoints is not None
+        setters = self._setpoints.setters
+        for old in self._setpoint_nodes.pop(line.name, []):
+            setters.pop(old, None)
+        mine = self._setpoint_nodes[line.name] = []
+        writable = ua.AccessLevel.CurrentRead.mask | ua.AccessLevel.CurrentWrite.mask
+        for channel, ch in nodes.channels.items():
+            speed = ch.values["speed"]
+            setters[speed.nodeid] = speed_setter(line, channel)
+            mine.append(speed.nodeid)
+            for attribute in (AttributeIds.AccessLevel, AttributeIds.UserAccessLevel):
+                await speed.write_attribute(
+                    attribute, ua.DataValue(ua.Variant(writable, ua.VariantType.Byte))
+                )
 
     async def _rebuild(self, line: Line) -> None:
         """The line came up after the face started: its channels and axes are known now.
@@ -293,9 +341,22 @@ class OpcUaFace:
             with contextlib.suppress(asyncio.CancelledError, Exception):
                 await task
         self.tasks.clear()
+        for conditions in self.conditions.values():
+            conditions.close()
         server, self.ua = self.ua, None
         if server is not None and server.bserver is not None:
             await server.stop()
+
+
+def shown_channels(line: Line) -> tuple[int, ...]:
+    """The line's channels (configured, else the controller's) that the controller has: a
+    channel configured for a controller without it would show only empty values. Before the
+    controller has answered, the configured ones (the nodes are made again once it has)."""
+    channels = line.channels()
+    if line.info is None:
+        return channels
+    present = {c.channel for c in line.info.channels if c.axes_in_use}
+    return tuple(c for c in channels if c in present) or channels
 
 
 def _report_end(task: asyncio.Task[Any]) -> None:

@@ -375,9 +375,8 @@ async def build_line(
     built = {}
     for channel in channels:
         ch_info = _channel_info(info, channel)
-        label = labels.get(channel) or f"Channel{channel}"
         built[channel] = await _build_channel(
-            b, devices, task_controls, channel, label, ch_info, model
+            b, devices, task_controls, channel, labels.get(channel), ch_info, model
         )
     return DeviceNodes(
         line,
@@ -396,14 +395,19 @@ async def _build_channel(
     devices: Node,
     task_controls: Node,
     channel: int,
-    label: str,
+    label: str | None,
     info: ChannelInfo | None,
     model: str,
 ) -> ChannelNodes:
+    """The channel's motion device and task control, both with the browse name
+    ``Channel<n>`` (what a client's browse paths name, whatever the channel is called) and the
+    configured label, if any, as their DisplayName and ComponentName (what people read)."""
     line = b.line
     base = f"{line}.ch{channel}"
-    device = await b.instance(devices, f"{base}.Device", b.vendor(label), MOTION_DEVICE_TYPE)
-    await b.component_name(device, f"{base}.Device", f"{line} {label}")
+    browse_name = b.vendor(f"Channel{channel}")
+    shown = label or f"Channel{channel}"
+    device = await b.instance(devices, f"{base}.Device", browse_name, MOTION_DEVICE_TYPE)
+    await b.component_name(device, f"{base}.Device", f"{line} {shown}")
     await _identity(
         device,
         b,
@@ -416,10 +420,15 @@ async def _build_channel(
     params = await b.child(device, b.di("ParameterSet"))
 
     # TaskControl (made before the device refers to it)
-    task = await b.instance(task_controls, f"{base}.Task", b.vendor(label), TASK_CONTROL_TYPE)
+    task = await b.instance(task_controls, f"{base}.Task", browse_name, TASK_CONTROL_TYPE)
     name_node = await _maybe_child(task, b.di("ComponentName"))
     if name_node is not None:
-        await name_node.write_value(ua.LocalizedText(label))
+        await name_node.write_value(ua.LocalizedText(shown))
+    if label:
+        for node in (device, task):
+            await node.write_attribute(
+                AttributeIds.DisplayName, ua.DataValue(ua.Variant(ua.LocalizedText(label)))
+            )
     task_params = await b.child(task, b.di("ParameterSet"))
     operation = await b.instance(
         task,

@@ -28,7 +28,7 @@ from pathlib import Path
 from typing import Any
 
 from asyncua import ua
-from asyncua.server.address_space import ViewService
+from asyncua.server.address_space import AddressSpace, NodeData, ViewService
 from asyncua.server.internal_server import InternalServer
 from asyncua.server.server import Server
 
@@ -91,6 +91,22 @@ def _private(path: Path) -> bool:
     return True
 
 
+def _nodes_of(aspace: AddressSpace) -> dict[ua.NodeId, NodeData]:
+    """The address space's nodes, through its public mapping methods (``keys`` and item
+    access), never its private dictionary: an asyncua release that renames that cannot break
+    the cache."""
+    # AddressSpace has keys() but no __iter__
+    return {nodeid: aspace[nodeid] for nodeid in aspace.keys()}  # noqa: SIM118
+
+
+def _fill(aspace: AddressSpace, nodes: dict[ua.NodeId, NodeData]) -> None:
+    """Replace everything in ``aspace`` with ``nodes`` (its public ``clear`` and item
+    assignment)."""
+    aspace.clear()
+    for nodeid, data in nodes.items():
+        aspace[nodeid] = data
+
+
 class MemoViewService(ViewService):
     """asyncua's browse service, remembering which reference types are subtypes of which.
 
@@ -145,7 +161,8 @@ class CachedInternalServer(InternalServer):
         if cache is not None:
             cached = self._read_cache(cache)
             if cached is not None:
-                self.aspace._nodes, self._cached_namespaces = cached
+                nodes, self._cached_namespaces = cached
+                _fill(self.aspace, nodes)
                 return
         with _gc_paused():
             await super().load_standard_address_space(None)
@@ -180,7 +197,7 @@ class CachedInternalServer(InternalServer):
         return LoadReport(False, 0.0, cache)
 
     def _drop_repeated_references(self) -> None:
-        for data in self.aspace._nodes.values():
+        for data in _nodes_of(self.aspace).values():
             seen: set[tuple[Any, ...]] = set()
             kept = []
             for ref in data.references:
@@ -214,7 +231,7 @@ class CachedInternalServer(InternalServer):
         return nodes, namespaces
 
     def _write_cache(self, path: Path, namespaces: list[str]) -> None:
-        nodes = self.aspace._nodes
+        nodes = _nodes_of(self.aspace)
         # method callbacks cannot be pickled (and are bound again at every start)
         calls = {nodeid: data.call for nodeid, data in nodes.items() if data.call is not None}
         for nodeid in calls:

@@ -3,14 +3,12 @@
 Each change of the line's model (``ControllerModel``) becomes writes of the variables that show
 it, with the time the value was read as the source timestamp and the model's quality as the
 status code: ``Good``; ``UncertainLastUsableValue`` when a poll failed and nobody can vouch for
-the value; ``BadCommunicationError`` while the line is down. A new alarm raises an
-``N1AlarmConditionType`` event (an AlarmConditionType) with the controller's code and text
-(``Active`` true, retained), a cleared one another (``Active`` false, not retained).
+the value; ``BadCommunicationError`` while the line is down. The alarm list goes to the line's
+alarm conditions (``conditions.py``), which raise and clear them as OPC UA conditions.
 """
 
 from __future__ import annotations
 
-import copy
 import datetime as dt
 import logging
 import time
@@ -19,8 +17,6 @@ from dataclasses import replace
 from typing import Any
 
 from asyncua import ua
-from asyncua.common.event_objects import BaseEvent
-from asyncua.server.event_generator import EventGenerator
 from asyncua.server.server import Server
 
 from robostar.serve.faces.opcua._ua import (
@@ -30,18 +26,15 @@ from robostar.serve.faces.opcua._ua import (
     timestamp,
 )
 from robostar.serve.faces.opcua.address_space import ChannelNodes, DeviceNodes
+from robostar.serve.faces.opcua.conditions import EMERGENCY_CODES, AlarmConditions, is_emergency
 from robostar.serve.model import Quality, Sample
 from robostar.types import Alarm, ChannelStatus, Position
 
-__all__ = ["ALARM_EVENT_FIELDS", "EMERGENCY_CODES", "NodeWriter", "status_of"]
+__all__ = ["ALARM_EVENT_FIELDS", "EMERGENCY_CODES", "NodeWriter", "is_emergency", "status_of"]
 
 log = logging.getLogger("robostar.serve.opcua")
 
-EMERGENCY_CODES = frozenset((1153,))
-"""Alarm codes that mean an emergency stop (1153 "T/P Emergency", from the manual); an alarm
-whose text says "Emergency" counts too, so a controller's own codes are caught."""
-
-ALARM_EVENT_FIELDS = (
+ALARM_EVENT_FIELDS = (  # besides the condition's own (conditions.py)
     ("AlarmCode", ua.VariantType.Int32),
     ("AlarmText", ua.VariantType.String),
     ("Line", ua.VariantType.String),
@@ -64,10 +57,6 @@ def status_of(quality: Quality) -> ua.StatusCode:
     return _STATUS[quality]
 
 
-def is_emergency(alarm: Alarm) -> bool:
-    return alarm.code in EMERGENCY_CODES or "emergency" in alarm.text.lower()
-
-
 class NodeWriter:
     """Writes one line's model changes into its nodes (see the module docstring)."""
 
@@ -75,24 +64,20 @@ class NodeWriter:
         self,
         server: Server,
         nodes: DeviceNodes,
-        events: EventGenerator,
+        conditions: AlarmConditions,
         robotics_ns: int,
         vendor_ns: int,
     ) -> None:
         self.server = server
         self.nodes = nodes
-        self.events = events
-        self._event_template = copy.copy(events.event)
-        """A fresh copy per alarm: asyncua keeps a retained condition's event object itself,
-        so reusing one object would make every retained condition the latest alarm."""
+        self.conditions = conditions
         self.robotics_ns = robotics_ns
         self.vendor_ns = vendor_ns
-        self._alarms: dict[int, Alarm] | None = None
         self._jobs: dict[int, bool] = {}
         self._running: dict[int, bool] = {}
         self.writes = 0
-        self.events_sent = 0
         self._globals: dict[str, Sample] = {}
+        self._shown: dict[str, Sample] = {}
 
     # -- writing -----------------------------------------------------------------------------
     async def _write(
@@ -136,6 +121,7 @@ class NodeWriter:
 
     async def apply(self, key: str, sample: Sample) -> None:
         """Show one model key's new sample (unknown keys are ignored)."""
+        self._shown[key] = sample
         value = sample.value
         nodes = self.nodes
         if key.startswith("ch") and "/" in key:
@@ -164,6 +150,10 @@ class NodeWriter:
             if node is not None:
                 contacts = list(value.contacts)
                 await self._write(node, contacts, ua.VariantType.Boolean, sample)
+
+    def last(self, key: str) -> Sample | None:
+        """The sample of ``key`` the nodes show (None: none yet)."""
+        return self._shown.get(key)
 
     async def stale(self, key: str) -> None:
         """A global variable could not be read: its last value stays, marked uncertain."""
@@ -228,50 +218,7 @@ class NodeWriter:
         await self._write(nodes.values["emergency_stop"], emergency, ua.VariantType.Boolean, sample)
         if sample.quality is not Quality.GOOD:
             return  # a line that went down cleared no alarm
-        current = {a.code: a for a in alarms}
-        before = self._alarms
-        self._alarms = current
-        if before is None:
-            raised, cleared = list(current.values()), []
-        else:
-            raised = [a for code, a in current.items() if code not in before]
-            cleared = [a for code, a in before.items() if code not in current]
-        for alarm in raised:
-            await self._event(alarm, active=True)
-        for alarm in cleared:
-            await self._event(alarm, active=False)
-
-    async def _event(self, alarm: Alarm, *, active: bool) -> None:
-        """One event of N1AlarmConditionType: an AlarmConditionType (its condition id per line
-        and code, retained while active so that ConditionRefresh replays it) with the N1's
-        code and text in fields of their own."""
-        event: BaseEvent = copy.copy(self._event_template)
-        self.events.event = event
-        line = self.nodes.line
-        state = ua.LocalizedText("Active" if active else "Inactive")
-        fields: dict[str, Any] = {
-            "AlarmCode": alarm.code,
-            "AlarmText": alarm.text,
-            "Line": line,
-            "Active": active,
-            "Severity": (900 if is_emergency(alarm) else 700) if active else 100,
-            "SourceName": line,
-            "NodeId": node_id(f"{line}.Alarm.{alarm.code}", self.vendor_ns),
-            "ConditionName": f"{alarm.code:04d}",
-            "Retain": active,
-            "ActiveState": state,
-            "ActiveState/Id": active,
-            "EnabledState": ua.LocalizedText("Enabled"),
-            "EnabledState/Id": True,
-            # the N1 has no acknowledgement: its alarms are reset (CE), never acknowledged
-            "AckedState": ua.LocalizedText("Acknowledged"),
-            "AckedState/Id": True,
-        }
-        for name, value in fields.items():  # the event type's own fields, set by name
-            setattr(event, name, value)
-        verb = "alarm" if active else "alarm cleared"
-        await self.events.trigger(message=f"{line}: {verb} {alarm}")
-        self.events_sent += 1
+        await self.conditions.update(alarms)
 
 
 async def _variant_of(node: Any) -> ua.VariantType:

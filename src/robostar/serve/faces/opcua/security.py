@@ -5,8 +5,9 @@
   off for the rest of the minute); the role (viewer, operator, ...) decides
   what the session may call. Anonymous sessions exist only when the configuration allows
   anonymous reading, and are viewers.
-- Every variable is read-only to every client: writes, and changes to the address space, are
-  refused for everyone (``BadUserAccessDenied``).
+- Every variable is read-only to every client but the setpoints (``setpoints.py``), which
+  operators may write over a signed channel; changes to the address space are refused for
+  everyone (``BadUserAccessDenied``).
 - Methods that move the robot check the caller's role themselves (an asyncua method handler is
   not told who calls it: the ruleset, which is, leaves the session's user and channel in a
   context variable for the handler of the same request).
@@ -47,10 +48,11 @@ __all__ = [
 
 log = logging.getLogger("robostar.serve.opcua")
 
+_WRITE = node_id(ObjectIds.WriteRequest_Encoding_DefaultBinary)
+"""Let through on signed channels only, and there checked value by value (setpoints.py)."""
 _ALWAYS_REFUSED = frozenset(
     node_id(i)
     for i in (
-        ObjectIds.WriteRequest_Encoding_DefaultBinary,
         ObjectIds.AddNodesRequest_Encoding_DefaultBinary,
         ObjectIds.DeleteNodesRequest_Encoding_DefaultBinary,
         ObjectIds.AddReferencesRequest_Encoding_DefaultBinary,
@@ -60,7 +62,8 @@ _ALWAYS_REFUSED = frozenset(
         ObjectIds.RegisterServer2Request_Encoding_DefaultBinary,
     )
 )
-"""Requests no client may make: the model is the controller's, read-only from outside."""
+"""Requests no client may make: the model is the controller's, read-only from outside but for
+its setpoints."""
 
 
 @dataclass(frozen=True)
@@ -98,7 +101,7 @@ class RoleRuleset(SimpleRoleRuleset):
 
     def check_validity(self, user: User, action_type_id: ua.NodeId, body: Any) -> bool:
         _caller.set(None)  # until this request is known to be allowed
-        if action_type_id in _ALWAYS_REFUSED:
+        if action_type_id in _ALWAYS_REFUSED or (action_type_id == _WRITE and not self.secure):
             return False
         self.users.refresh()
         role = Role.VIEWER

@@ -30,6 +30,8 @@ _OPTIONS = frozenset(
         "hostname",
         "globals",
         "globals_interval",
+        "pki_dir",
+        "accept_unknown_clients",
     )
 )
 
@@ -52,6 +54,14 @@ class OpcUaSettings:
     global_floats: tuple[int, ...] = ()
     """The global variables the face reads (GR) for every line; the line server polls none."""
     globals_interval: float = 1.0
+    pki_dir: Path | None = None
+    """The client trust list's folder (trusted/, rejected/); None: ``<state_dir>/pki``."""
+    accept_unknown_clients: bool = False
+    """Accept client applications whose certificate is not in ``trusted/``."""
+
+    @property
+    def pki(self) -> Path:
+        return self.pki_dir if self.pki_dir is not None else self.state_dir / "pki"
 
     @property
     def endpoint(self) -> str:
@@ -111,6 +121,9 @@ def settings_from(options: Mapping[str, Any]) -> OpcUaSettings:
     interval = options.get("globals_interval", 1.0)
     if isinstance(interval, bool) or not isinstance(interval, int | float) or interval < 0.1:
         raise UsageError(f"opcua.globals_interval: {interval!r} is not 0.1 s or more")
+    pki = options.get("pki_dir")
+    if pki is not None and not isinstance(pki, str):
+        raise UsageError(f"opcua.pki_dir: {pki!r} is not a path")
     hostname = str(options.get("hostname") or socket.gethostname())
     uri = str(options.get("application_uri") or f"urn:{hostname}:robostar:serve")
     return OpcUaSettings(
@@ -125,6 +138,8 @@ def settings_from(options: Mapping[str, Any]) -> OpcUaSettings:
         global_ints=global_ints,
         global_floats=global_floats,
         globals_interval=float(interval),
+        pki_dir=Path(pki) if pki else None,
+        accept_unknown_clients=_flag(options, "accept_unknown_clients"),
     )
 
 
