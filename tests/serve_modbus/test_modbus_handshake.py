@@ -57,6 +57,19 @@ def test_each_code_becomes_its_command(block: list[int], expected: tuple[object,
     assert request.is_stop == (block[0] in (4, 11, 12))
 
 
+@pytest.mark.parametrize("value", [0.1, 2.675, -1234.567, 99999.99, 0.001, -0.3, 100.0])
+def test_a_plcs_real_is_the_decimal_it_meant(value: float) -> None:
+    """A float32 holds 0.1 as 0.10000000149...: GW must get 0.1, not a refusal as too fine."""
+    (command,) = parse_request(_block(10, 7, *_words(">f", value))).commands
+    assert command == WriteGlobalFloat(7, value)
+    command.encode()
+
+
+def test_a_real_finer_than_the_field_is_still_refused() -> None:
+    with pytest.raises(UsageError, match="finer"):
+        parse_request(_block(10, 0, *_words(">f", 0.1234)))
+
+
 def test_the_job_codes_name_a_job_number_to_look_up() -> None:
     run = parse_request(_block(3, 2, 17))
     assert (run.channel, run.job, run.start, run.commands) == (2, 17, True, ())

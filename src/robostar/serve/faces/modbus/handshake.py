@@ -66,9 +66,19 @@ def _int32(high: int, low: int) -> int:
 
 
 def _float32(high: int, low: int) -> float:
-    value = float(struct.unpack(">f", struct.pack(">HH", high, low))[0])
+    """The PLC's REAL as the decimal it meant: the shortest one that is the same float32.
+
+    A float32 holds few decimals exactly (0.1 arrives as 0.10000000149011612), and GW refuses
+    a value finer than 0.001 rather than round it; so 0.1 is taken as 0.1, but 0.1234 (a
+    float32 of its own) is still refused as finer than the field."""
+    data = struct.pack(">HH", high, low)
+    value = float(struct.unpack(">f", data)[0])
     if value != value or value in (float("inf"), float("-inf")):
         raise UsageError("value: not a finite float")
+    for digits in range(1, 10):  # 9 significant digits always read back as the same float32
+        shortest = float(f"{value:.{digits}g}")
+        if struct.pack(">f", shortest) == data:
+            return shortest
     return value
 
 
