@@ -7,16 +7,23 @@ registers); its ``action`` hook sees each request before pymodbus answers it and
 registers or answer with an exception. Coils are not mapped: every coil request is answered
 ILLEGAL DATA ADDRESS, as is a write to a read-only register (pymodbus checks that itself) and
 any address past a table's end.
+
+Connections are bounded: past ``max_clients`` a new one is closed at once (the PLC's client
+tries again), and one that sends nothing for ``idle_timeout`` seconds is closed, so that PLCs
+that lost power or their cable (a half-open connection lives for ever) do not keep the places
+of the PLCs that come back.
 """
 
 from __future__ import annotations
 
+import asyncio
 import logging
 from collections.abc import Sequence
-from typing import Protocol
+from typing import Any, Protocol
 
 from pymodbus.constants import ExcCodes
 from pymodbus.server import ModbusTcpServer
+from pymodbus.server.requesthandler import ServerRequestHandler
 from pymodbus.simulator import DataType, SimData, SimDevice
 
 from robostar.errors import UsageError
@@ -63,15 +70,101 @@ def _pack_bits(bits: Sequence[bool]) -> list[int]:
     return words
 
 
-class RegisterServer:
-    """The Modbus TCP server of one line (see the module docstring)."""
+class _Connection(ServerRequestHandler):
+    """One client's connection: closed at once past the listener's ``max_clients``, and when
+    it has sent nothing for its ``idle_timeout``."""
 
-    def __init__(self, name: str, source: RegisterSource, *, writes: bool) -> None:
+    def __init__(self, listener: _Listener) -> None:
+        super().__init__(  # type: ignore[no-untyped-call]
+            listener, listener.trace_packet, listener.trace_pdu, listener.trace_connect
+        )
+        self.owner = listener
+        self.heard = listener.loop.time()
+        self._timer: asyncio.TimerHandle | None = None
+
+    def callback_connected(self) -> None:
+        super().callback_connected()
+        owner = self.owner
+        if len(owner.active_connections) > owner.max_clients:  # this one is counted
+            log.warning(
+                "modbus %s: a connection turned away: %d clients already (max_clients)",
+                owner.line_name,
+                owner.max_clients,
+            )
+            self.close()
+            return
+        if owner.idle_timeout:
+            self._timer = owner.loop.call_later(owner.idle_timeout, self._check_idle)
+
+    def callback_data(self, data: bytes, addr: tuple[Any, ...] | None = None) -> int:
+        self.heard = self.owner.loop.time()
+        return super().callback_data(data, addr)
+
+    def _check_idle(self) -> None:
+        self._timer = None
+        if not self.transport or not self.owner.idle_timeout:
+            return
+        silent = self.owner.loop.time() - self.heard
+        if silent >= self.owner.idle_timeout:
+            log.info(
+                "modbus %s: a connection closed: silent for %.0f s (idle_timeout)",
+                self.owner.line_name,
+                silent,
+            )
+            self.close()
+        else:
+            remaining = self.owner.idle_timeout - silent
+            self._timer = self.owner.loop.call_later(remaining, self._check_idle)
+
+    def _cancel_timer(self) -> None:
+        if self._timer is not None:
+            self._timer.cancel()
+            self._timer = None
+
+    def callback_disconnected(self, exc: Exception | None) -> None:
+        self._cancel_timer()
+        super().callback_disconnected(exc)
+
+    def close(self, reconnect: bool = False) -> None:
+        self._cancel_timer()
+        super().close(reconnect)
+
+
+class _Listener(ModbusTcpServer):
+    """pymodbus's TCP server, its connections bounded (see :class:`_Connection`)."""
+
+    def __init__(
+        self, *args: Any, line_name: str, max_clients: int, idle_timeout: float, **kwargs: Any
+    ) -> None:
+        super().__init__(*args, **kwargs)
+        self.line_name = line_name
+        self.max_clients = max_clients
+        self.idle_timeout = idle_timeout
+
+    def callback_new_connection(self) -> _Connection:
+        return _Connection(self)
+
+
+class RegisterServer:
+    """The Modbus TCP server of one line (see the module docstring): at most ``max_clients``
+    connections, each closed after ``idle_timeout`` seconds of silence (0: never)."""
+
+    def __init__(
+        self,
+        name: str,
+        source: RegisterSource,
+        *,
+        writes: bool,
+        max_clients: int = 16,
+        idle_timeout: float = 120.0,
+    ) -> None:
         self.name = name
         self.source = source
         self.writes = writes
+        self.max_clients = max_clients
+        self.idle_timeout = idle_timeout
         self.address: tuple[str, int] | None = None
-        self._server: ModbusTcpServer | None = None
+        self._server: _Listener | None = None
         self._packed: tuple[list[bool], list[int]] | None = None
         """The discrete inputs last packed, and their packing (they change with the model)."""
 
@@ -97,7 +190,13 @@ class RegisterServer:
 
     async def start(self, host: str, port: int, *, allow_remote: bool) -> tuple[str, int]:
         check_host(host, allow_remote)
-        server = ModbusTcpServer(self.device(), address=(host, port))
+        server = _Listener(
+            self.device(),
+            address=(host, port),
+            line_name=self.name,
+            max_clients=self.max_clients,
+            idle_timeout=self.idle_timeout,
+        )
         try:
             await server.serve_forever(background=True)
         except RuntimeError as exc:
@@ -111,6 +210,11 @@ class RegisterServer:
         bound = sockets[0].getsockname() if sockets else (host, port)
         self.address = (str(bound[0]), int(bound[1]))
         return self.address
+
+    @property
+    def connections(self) -> int:
+        """The clients connected now."""
+        return 0 if self._server is None else len(self._server.active_connections)
 
     async def stop(self) -> None:
         server, self._server = self._server, None

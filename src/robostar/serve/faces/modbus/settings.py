@@ -6,6 +6,8 @@ lines = { cell1 = "127.0.0.1:5020" }     # a port per line (--modbus cell1=127.0
 holder = "plc"                           # the lease holder's name in the audit log
 globals = { int = { first = 0, count = 16 }, float = { first = 0, count = 8 } }
 globals_interval = 1.0                   # seconds between the face's reads of the globals
+max_clients = 16                         # connections per line's port; more are closed at once
+idle_timeout = 120                       # seconds of silence that close a connection (0: never)
 
 [modbus.commands]
 enabled = true                           # off by default: the command registers are read-only
@@ -28,7 +30,17 @@ from robostar.serve.faces.modbus.layout import MAX_GLOBALS, GlobalRange
 __all__ = ["DEFAULT_ALLOW", "ModbusSettings", "settings_from"]
 
 _OPTIONS = frozenset(
-    ("lines", "allow_remote", "token", "holder", "globals", "globals_interval", "commands")
+    (
+        "lines",
+        "allow_remote",
+        "token",
+        "holder",
+        "globals",
+        "globals_interval",
+        "commands",
+        "max_clients",
+        "idle_timeout",
+    )
 )
 _COMMAND_OPTIONS = frozenset(("enabled", "allow"))
 DEFAULT_ALLOW = tuple(sorted(STOP_NAMES))
@@ -45,6 +57,10 @@ class ModbusSettings:
     globals_interval: float = 1.0
     commands: frozenset[str] = frozenset()
     """The commands the PLC may run (empty: writes are off, the command block is read-only)."""
+    max_clients: int = 16
+    """Connections per line's port at once; one more is closed as soon as it opens."""
+    idle_timeout: float = 120.0
+    """Seconds after which a connection that sent nothing is closed (0: never)."""
 
     @property
     def writes(self) -> bool:
@@ -109,8 +125,16 @@ def settings_from(options: Mapping[str, Any], line_names: set[str] | None = None
     interval = options.get("globals_interval", 1.0)
     if isinstance(interval, bool) or not isinstance(interval, int | float) or not interval >= 0.1:
         raise UsageError(f"modbus.globals_interval: {interval!r} is not 0.1 s or more")
+    max_clients = options.get("max_clients", 16)
+    if isinstance(max_clients, bool) or not isinstance(max_clients, int) or max_clients < 1:
+        raise UsageError(f"modbus.max_clients: {max_clients!r} is not a whole number of 1 or more")
+    idle = options.get("idle_timeout", 120.0)
+    if isinstance(idle, bool) or not isinstance(idle, int | float) or not idle >= 0:
+        raise UsageError(f"modbus.idle_timeout: {idle!r} is not a number of seconds (0: never)")
     return ModbusSettings(
         lines=lines,
+        max_clients=max_clients,
+        idle_timeout=float(idle),
         allow_remote=allow_remote,
         holder=holder,
         ints=_range(table.get("int"), "int", ReadGlobalInt),

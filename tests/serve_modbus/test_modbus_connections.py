@@ -1,0 +1,85 @@
+"""The Modbus face's connections are bounded: past ``max_clients`` a new one is closed at once
+and the PLCs already connected are served on; a connection silent for ``idle_timeout`` is
+closed (a PLC that lost power leaves a half-open one), and its place is free again."""
+
+from __future__ import annotations
+
+import asyncio
+from pathlib import Path
+
+import pytest
+from pymodbus.client import AsyncModbusTcpClient
+from pymodbus.exceptions import ModbusException
+
+from robostar.errors import UsageError
+from robostar.serve.faces.modbus.layout import IR
+from robostar.serve.faces.modbus.server import RegisterServer
+from robostar.serve.faces.modbus.settings import settings_from
+
+from .conftest import Cell, cell, until
+
+
+def _server(c: Cell) -> RegisterServer:
+    return c.server.faces["modbus"].servers["cell1"]  # type: ignore[attr-defined,no-any-return]
+
+
+async def _plc(c: Cell) -> AsyncModbusTcpClient:
+    host, port = c.server.faces["modbus"].addresses["cell1"]  # type: ignore[attr-defined]
+    plc = AsyncModbusTcpClient(host, port=port, timeout=1, retries=0, reconnect_delay=0)
+    await plc.connect()
+    return plc
+
+
+async def _answers(plc: AsyncModbusTcpClient) -> bool:
+    try:
+        answer = await plc.read_input_registers(IR.MAP_VERSION, count=1)
+    except ModbusException:
+        return False
+    return not answer.isError()
+
+
+def test_a_connection_past_max_clients_is_turned_away(tmp_path: Path) -> None:
+    async def main() -> None:
+        async with cell(tmp_path, max_clients=2) as c:  # c.plc is the first
+            second = await _plc(c)
+            assert await _answers(second)
+            await until(lambda: _server(c).connections == 2)
+            third = await _plc(c)
+            assert not await _answers(third)
+            assert await _answers(second) and await _answers(c.plc)
+            third.close()
+            second.close()
+            await until(lambda: _server(c).connections == 1)
+            fourth = await _plc(c)  # a place is free again
+            assert await _answers(fourth)
+            fourth.close()
+
+    asyncio.run(main())
+
+
+def test_a_silent_connection_is_closed_after_idle_timeout(tmp_path: Path) -> None:
+    async def main() -> None:
+        async with cell(tmp_path, max_clients=1, idle_timeout=1.0) as c:
+            assert await _answers(c.plc)
+            await until(lambda: _server(c).connections == 0)
+            newcomer = await _plc(c)  # the silent one's place
+            assert await _answers(newcomer)
+            for _ in range(30):  # a PLC that polls keeps its connection past the timeout
+                await asyncio.sleep(0.05)
+                assert await _answers(newcomer)
+            assert _server(c).connections == 1
+            newcomer.close()
+
+    asyncio.run(main())
+
+
+@pytest.mark.parametrize(
+    ("key", "value"),
+    [("max_clients", 0), ("max_clients", 2.5), ("idle_timeout", -1), ("idle_timeout", "x")],
+)
+def test_the_connection_settings_are_checked(key: str, value: object) -> None:
+    options = {"lines": {"cell1": "127.0.0.1:5020"}, key: value}
+    with pytest.raises(UsageError, match=f"modbus.{key}"):
+        settings_from(options, {"cell1"})
+    settings = settings_from({"lines": {"cell1": "127.0.0.1:5020"}}, {"cell1"})
+    assert (settings.max_clients, settings.idle_timeout) == (16, 120.0)
