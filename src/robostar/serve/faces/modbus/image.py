@@ -162,6 +162,7 @@ def build_image(inputs: ImageInputs, now: float) -> Image:
         ir[IR.ALARM_COUNT] = min(len(alarms), 0xFFFF)
         for n, alarm in enumerate(alarms[:ALARM_SLOTS]):
             ir[IR.ALARM_CODES + n] = max(0, min(int(getattr(alarm, "code", 0)), 0xFFFF))
+    ir[IR.IO_POLLED] = sum(1 << port for port in inputs.io_ports if port in IO_PORTS)
     for port in IO_PORTS:
         for side, ir_base, di_base in (
             ("in", IR.INPUTS, DI.INPUTS),
