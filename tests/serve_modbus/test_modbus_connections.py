@@ -1,6 +1,7 @@
 """The Modbus face's connections are bounded: past ``max_clients`` a new one is closed at once
 and the PLCs already connected are served on; a connection silent for ``idle_timeout`` is
-closed (a PLC that lost power leaves a half-open one), and its place is free again."""
+closed (a PLC that lost power leaves a half-open one), and its place is free again; a scan
+for the device's identification names the server and its map."""
 
 from __future__ import annotations
 
@@ -11,8 +12,9 @@ import pytest
 from pymodbus.client import AsyncModbusTcpClient
 from pymodbus.exceptions import ModbusException
 
+from robostar import __version__
 from robostar.errors import UsageError
-from robostar.serve.faces.modbus.layout import IR
+from robostar.serve.faces.modbus.layout import IR, MAP_VERSION
 from robostar.serve.faces.modbus.server import RegisterServer
 from robostar.serve.faces.modbus.settings import settings_from
 
@@ -83,3 +85,19 @@ def test_the_connection_settings_are_checked(key: str, value: object) -> None:
         settings_from(options, {"cell1"})
     settings = settings_from({"lines": {"cell1": "127.0.0.1:5020"}}, {"cell1"})
     assert (settings.max_clients, settings.idle_timeout) == (16, 120.0)
+
+
+def test_a_scan_names_the_server_and_its_map(tmp_path: Path) -> None:
+    """Read Device Identification (43/14), as a commissioning tool's scan sends it."""
+
+    async def main() -> None:
+        async with cell(tmp_path) as c:
+            answer = await c.plc.read_device_information()
+            assert not answer.isError(), answer
+            info = answer.information
+            assert info[0] == b"robostar"
+            assert info[2] == __version__.encode()
+            regular = (await c.plc.read_device_information(read_code=2)).information
+            assert regular[5] == f"register map version {MAP_VERSION}".encode()
+
+    asyncio.run(main())

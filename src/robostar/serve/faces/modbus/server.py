@@ -22,14 +22,16 @@ from collections.abc import Sequence
 from typing import Any, Protocol
 
 from pymodbus.constants import ExcCodes
+from pymodbus.pdu.device import ModbusDeviceIdentification
 from pymodbus.server import ModbusTcpServer
 from pymodbus.server.requesthandler import ServerRequestHandler
 from pymodbus.simulator import DataType, SimData, SimDevice
 
+from robostar import __version__
 from robostar.errors import UsageError
 from robostar.listen import check_host
 from robostar.serve.faces.modbus.image import Image
-from robostar.serve.faces.modbus.layout import DI, HR, IR
+from robostar.serve.faces.modbus.layout import DI, HR, IR, MAP_VERSION
 from robostar.transport.url import netloc
 
 __all__ = ["RegisterServer", "RegisterSource"]
@@ -56,6 +58,21 @@ class RegisterSource(Protocol):
 
     def written(self, block: list[int]) -> None:
         """The command block (HR 0-9) after a write that was accepted."""
+
+
+def identity() -> ModbusDeviceIdentification:
+    """What Read Device Identification (function 43/14) and Report Server ID (17) answer, so
+    that a commissioning tool's scan names the server and its map (pymodbus keeps one for the
+    whole process: it names no line)."""
+    return ModbusDeviceIdentification(  # type: ignore[no-untyped-call]
+        info_name={
+            "VendorName": "robostar",
+            "ProductCode": "robostar-serve-modbus",
+            "MajorMinorRevision": __version__,
+            "ProductName": "robostar line server, Modbus TCP face",
+            "ModelName": f"register map version {MAP_VERSION}",
+        }
+    )
 
 
 def _pack_bits(bits: Sequence[bool]) -> list[int]:
@@ -196,6 +213,7 @@ class RegisterServer:
             line_name=self.name,
             max_clients=self.max_clients,
             idle_timeout=self.idle_timeout,
+            identity=identity(),
         )
         try:
             await server.serve_forever(background=True)
