@@ -188,6 +188,32 @@ def test_a_command_while_another_runs_is_busy_but_a_stop_runs(tmp_path: Path) ->
     asyncio.run(main())
 
 
+def test_a_stop_while_a_job_is_being_selected_keeps_it_from_starting(tmp_path: Path) -> None:
+    """run_job is DC then CC: a stop written while DC is on the wire must keep CC from going
+    out after it, and the selection ending after the stop must not put its own number back
+    in done_sequence (the PLC waits for the stop's)."""
+
+    async def main() -> None:
+        async with cell(tmp_path, commands={"enabled": True, "allow": ALL}) as c:
+            await _waiting_job(c)
+            await c.write_block([RUN_JOB, 1, 7, 0, 0, 0, 0, 0, 0, 1])
+            await until(lambda: c.sim.controller.executions.get("DC", 0) == 1)
+            result = await c.command(STOP_JOB, 1, sequence=2)
+            assert _outcome(result) is Outcome.DONE, _text(result)
+            runner = c.server.faces["modbus"].ports["cell1"].runner  # type: ignore[attr-defined]
+            await until(lambda: not runner.tasks)  # run_job has ended too
+            assert c.sim.controller.executions.get("CC", 0) == 0
+            assert not _running(c)
+            result = await c.result(2)
+            assert result[HR.ACCEPTED_SEQUENCE - HR.WRITABLE] == 2
+            assert _outcome(result) is Outcome.DONE
+            records = [json.loads(line) for line in c.audit.read_text().splitlines()]
+            (start,) = [r for r in records if r["what"].startswith("modbus run_job")]
+            assert start["outcome"].startswith("refused: a stop came")  # in the audit log
+
+    asyncio.run(main())
+
+
 def test_the_first_sequence_after_a_start_is_not_run(tmp_path: Path) -> None:
     """A PLC that writes its block every cycle writes the last command again after the face
     restarts: that block must not run a second time."""
