@@ -83,6 +83,7 @@ def test_the_settings_are_checked_key_by_key() -> None:
         ({**lines, "globals": {"float": {"first": 499, "count": 2}}}, "modbus.globals.float"),
         ({**lines, "commands": {"enabled": True, "allow": ["dance"]}}, "modbus.commands.allow"),
         ({**lines, "globals_interval": 0}, "modbus.globals_interval"),
+        ({**lines, "commands": {"enabled": True, "allow": ["run_job"]}}, "without stop_job"),
     ]
     for options, key in bad:
         with pytest.raises(UsageError, match=key):

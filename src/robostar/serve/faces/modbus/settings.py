@@ -158,4 +158,10 @@ def _commands(table: Any) -> frozenset[str]:
         raise UsageError(
             f"modbus.commands.allow: {allow!r}: names among {', '.join(sorted(NAMES))}"
         )
+    starts = sorted({"run_job", "start_job"} & set(allow))
+    if starts and "stop_job" not in allow:
+        raise UsageError(
+            f"modbus.commands.allow: {' and '.join(starts)} without stop_job: a PLC that can"
+            " start a JOB must be able to stop it"
+        )
     return frozenset(allow) if enabled else frozenset()
