@@ -233,6 +233,26 @@ def test_the_first_sequence_after_a_start_is_not_run(tmp_path: Path) -> None:
     asyncio.run(main())
 
 
+def test_the_plc_homes_a_channel(tmp_path: Path) -> None:
+    """A cell's start: servo on, then origin return, with nobody at the teach pendant."""
+
+    async def main() -> None:
+        allow = ["servo", "home", "stop_homing"]
+        async with cell(tmp_path, commands={"enabled": True, "allow": allow}) as c:
+            assert not c.sim.model.channel(1).origin
+            assert _outcome(await c.command(SERVO, 1, 1, sequence=1)) is Outcome.DONE
+            result = await c.command(14, 1, sequence=2)  # home
+            assert _outcome(result) is Outcome.DONE, _text(result)
+
+            async def origin_shown() -> bool:
+                bits = (await c.plc.read_discrete_inputs(0, count=8)).bits
+                return bool(bits[1])  # ch1.origin
+
+            await until(origin_shown, timeout=30)
+
+    asyncio.run(main())
+
+
 def test_a_lost_answer_is_published_as_outcome_unknown(tmp_path: Path) -> None:
     async def main() -> None:
         async with cell(tmp_path, commands={"enabled": True, "allow": ALL}) as c:
