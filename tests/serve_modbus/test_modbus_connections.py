@@ -61,12 +61,12 @@ def test_a_connection_past_max_clients_is_turned_away(tmp_path: Path) -> None:
 
 def test_a_silent_connection_is_closed_after_idle_timeout(tmp_path: Path) -> None:
     async def main() -> None:
-        async with cell(tmp_path, max_clients=1, idle_timeout=1.0) as c:
+        async with cell(tmp_path, max_clients=1, idle_timeout=1.5) as c:
             assert await _answers(c.plc)
             await until(lambda: _server(c).connections == 0)
             newcomer = await _plc(c)  # the silent one's place
             assert await _answers(newcomer)
-            for _ in range(30):  # a PLC that polls keeps its connection past the timeout
+            for _ in range(40):  # a PLC that polls keeps its connection past the timeout
                 await asyncio.sleep(0.05)
                 assert await _answers(newcomer)
             assert _server(c).connections == 1
