@@ -6,6 +6,7 @@ for the device's identification names the server and its map."""
 from __future__ import annotations
 
 import asyncio
+import logging
 from pathlib import Path
 
 import pytest
@@ -57,6 +58,25 @@ def test_a_connection_past_max_clients_is_turned_away(tmp_path: Path) -> None:
             fourth.close()
 
     asyncio.run(main())
+
+
+def test_connections_turned_away_are_logged_once_not_each_time(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    """A PLC's client that tries again every few milliseconds must not flood the log."""
+
+    async def main() -> None:
+        async with cell(tmp_path, max_clients=1) as c:
+            for _ in range(5):
+                extra = await _plc(c)
+                assert not await _answers(extra)
+                extra.close()
+            assert await _answers(c.plc)
+
+    with caplog.at_level(logging.WARNING, logger="robostar.serve.modbus"):
+        asyncio.run(main())
+    warnings = [r for r in caplog.records if "turned away" in r.getMessage()]
+    assert len(warnings) == 1, [r.getMessage() for r in warnings]
 
 
 def test_a_silent_connection_is_closed_after_idle_timeout(tmp_path: Path) -> None:

@@ -38,6 +38,8 @@ __all__ = ["RegisterServer", "RegisterSource"]
 
 log = logging.getLogger("robostar.serve.modbus")
 
+_TURNED_AWAY_WARNING = 60.0
+"""Seconds between two warnings of connections turned away past ``max_clients``."""
 _READ_DI = 2
 _READ_IR = 4
 _HOLDING = frozenset((3, 6, 16, 22, 23))
@@ -103,11 +105,7 @@ class _Connection(ServerRequestHandler):
         super().callback_connected()
         owner = self.owner
         if len(owner.active_connections) > owner.max_clients:  # this one is counted
-            log.warning(
-                "modbus %s: a connection turned away: %d clients already (max_clients)",
-                owner.line_name,
-                owner.max_clients,
-            )
+            owner.turned_away()
             self.close()
             return
         if owner.idle_timeout:
@@ -157,6 +155,23 @@ class _Listener(ModbusTcpServer):
         self.line_name = line_name
         self.max_clients = max_clients
         self.idle_timeout = idle_timeout
+        self._turned_away = 0
+        self._warned_at: float | None = None
+
+    def turned_away(self) -> None:
+        """Count a connection turned away; say so at most once a minute (a PLC's client
+        tries again and again, each time turned away while the others stay)."""
+        self._turned_away += 1
+        now = self.loop.time()
+        if self._warned_at is not None and now - self._warned_at < _TURNED_AWAY_WARNING:
+            return
+        log.warning(
+            "modbus %s: %d connection(s) turned away: %d clients already (max_clients)",
+            self.line_name,
+            self._turned_away,
+            self.max_clients,
+        )
+        self._warned_at, self._turned_away = now, 0
 
     def callback_new_connection(self) -> _Connection:
         return _Connection(self)
