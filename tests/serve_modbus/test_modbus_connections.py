@@ -17,7 +17,7 @@ from robostar import __version__
 from robostar.errors import UsageError
 from robostar.serve.faces.modbus.layout import IR, MAP_VERSION
 from robostar.serve.faces.modbus.server import RegisterServer
-from robostar.serve.faces.modbus.settings import settings_from
+from robostar.serve.faces.modbus.settings import admits, settings_from
 
 from .conftest import Cell, cell, until
 
@@ -121,3 +121,24 @@ def test_a_scan_names_the_server_and_its_map(tmp_path: Path) -> None:
             assert regular[5] == f"register map version {MAP_VERSION}".encode()
 
     asyncio.run(main())
+
+
+def test_beyond_loopback_the_plcs_are_named() -> None:
+    """Modbus TCP has no authentication: a listener beyond loopback serves the peers that
+    allow_from names (and loopback), no one else."""
+    remote = {"lines": {"cell1": "192.0.2.1:502"}, "allow_remote": True}
+    with pytest.raises(UsageError, match="allow_from"):
+        settings_from(remote, {"cell1"})
+    with pytest.raises(UsageError, match=r"modbus\.allow_from"):
+        settings_from({**remote, "allow_from": ["plc-7"]}, {"cell1"})
+    with pytest.raises(UsageError, match=r"modbus\.allow_from"):
+        settings_from({**remote, "allow_from": "192.0.2.7"}, {"cell1"})
+    settings = settings_from({**remote, "allow_from": ["192.0.2.7", "10.1.0.0/16"]}, {"cell1"})
+    allowed = settings.allow_from
+    assert admits(allowed, ("192.0.2.7", 50000))
+    assert admits(allowed, ("10.1.200.3", 50000))
+    assert admits(allowed, ("::ffff:192.0.2.7", 50000, 0, 0))
+    assert admits(allowed, ("127.0.0.1", 50000)) and admits(allowed, ("::1", 50000, 0, 0))
+    assert not admits(allowed, ("192.0.2.8", 50000))
+    assert not admits(allowed, None)
+    assert admits(None, ("192.0.2.8", 50000))  # a loopback listener: whoever reaches it

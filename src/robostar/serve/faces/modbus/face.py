@@ -181,6 +181,7 @@ class ModbusFace:
                     writes=self.settings.writes,
                     max_clients=self.settings.max_clients,
                     idle_timeout=self.settings.idle_timeout,
+                    allow_from=self.settings.allow_from,
                 )
                 self.addresses[name] = await modbus.start(
                     host, port, allow_remote=self.settings.allow_remote

@@ -8,10 +8,10 @@ registers or answer with an exception. Coils are not mapped: every coil request 
 ILLEGAL DATA ADDRESS, as is a write to a read-only register (pymodbus checks that itself) and
 any address past a table's end.
 
-Connections are bounded: past ``max_clients`` a new one is closed at once (the PLC's client
-tries again), and one that sends nothing for ``idle_timeout`` seconds is closed, so that PLCs
-that lost power or their cable (a half-open connection lives for ever) do not keep the places
-of the PLCs that come back.
+Connections are bounded: one from a peer not in ``allow_from`` (loopback always is) is closed
+at once, as is one past ``max_clients`` (the PLC's client tries again), and one that sends
+nothing for ``idle_timeout`` seconds is closed, so that PLCs that lost power or their cable (a
+half-open connection lives for ever) do not keep the places of the PLCs that come back.
 """
 
 from __future__ import annotations
@@ -32,6 +32,7 @@ from robostar.errors import UsageError
 from robostar.listen import check_host
 from robostar.serve.faces.modbus.image import Image
 from robostar.serve.faces.modbus.layout import DI, HR, IR, MAP_VERSION
+from robostar.serve.faces.modbus.settings import Network, admits
 from robostar.transport.url import netloc
 
 __all__ = ["RegisterServer", "RegisterSource"]
@@ -104,8 +105,13 @@ class _Connection(ServerRequestHandler):
     def callback_connected(self) -> None:
         super().callback_connected()
         owner = self.owner
+        peer = self.transport.get_extra_info("peername") if self.transport else None
+        if not admits(owner.allow_from, peer):
+            owner.turned_away(f"not in allow_from ({peer[0] if peer else '?'})")
+            self.close()
+            return
         if len(owner.active_connections) > owner.max_clients:  # this one is counted
-            owner.turned_away()
+            owner.turned_away(f"{owner.max_clients} clients already (max_clients)")
             self.close()
             return
         if owner.idle_timeout:
@@ -149,29 +155,37 @@ class _Listener(ModbusTcpServer):
     """pymodbus's TCP server, its connections bounded (see :class:`_Connection`)."""
 
     def __init__(
-        self, *args: Any, line_name: str, max_clients: int, idle_timeout: float, **kwargs: Any
+        self,
+        *args: Any,
+        line_name: str,
+        max_clients: int,
+        idle_timeout: float,
+        allow_from: tuple[Network, ...] | None,
+        **kwargs: Any,
     ) -> None:
         super().__init__(*args, **kwargs)
         self.line_name = line_name
         self.max_clients = max_clients
         self.idle_timeout = idle_timeout
-        self._turned_away = 0
-        self._warned_at: float | None = None
+        self.allow_from = allow_from
+        self._turned_away: dict[str, int] = {}
+        self._warned_at: dict[str, float] = {}
 
-    def turned_away(self) -> None:
-        """Count a connection turned away; say so at most once a minute (a PLC's client
-        tries again and again, each time turned away while the others stay)."""
-        self._turned_away += 1
+    def turned_away(self, why: str) -> None:
+        """Count a connection turned away; say so at most once a minute for each ``why`` (a
+        PLC's client tries again and again, each time turned away)."""
+        self._turned_away[why] = self._turned_away.get(why, 0) + 1
         now = self.loop.time()
-        if self._warned_at is not None and now - self._warned_at < _TURNED_AWAY_WARNING:
+        warned = self._warned_at.get(why)
+        if warned is not None and now - warned < _TURNED_AWAY_WARNING:
             return
         log.warning(
-            "modbus %s: %d connection(s) turned away: %d clients already (max_clients)",
+            "modbus %s: %d connection(s) turned away: %s",
             self.line_name,
-            self._turned_away,
-            self.max_clients,
+            self._turned_away.pop(why),
+            why,
         )
-        self._warned_at, self._turned_away = now, 0
+        self._warned_at[why] = now
 
     def callback_new_connection(self) -> _Connection:
         return _Connection(self)
@@ -189,8 +203,10 @@ class RegisterServer:
         writes: bool,
         max_clients: int = 16,
         idle_timeout: float = 120.0,
+        allow_from: tuple[Network, ...] | None = None,
     ) -> None:
         self.name = name
+        self.allow_from = allow_from
         self.source = source
         self.writes = writes
         self.max_clients = max_clients
@@ -228,6 +244,7 @@ class RegisterServer:
             line_name=self.name,
             max_clients=self.max_clients,
             idle_timeout=self.idle_timeout,
+            allow_from=self.allow_from,
             identity=identity(),
         )
         try:
