@@ -91,8 +91,9 @@ def _pack_bits(bits: Sequence[bool]) -> list[int]:
 
 
 class _Connection(ServerRequestHandler):
-    """One client's connection: closed at once past the listener's ``max_clients``, and when
-    it has sent nothing for its ``idle_timeout``."""
+    """One client's connection: closed at once when its peer is not in the listener's
+    ``allow_from`` or the listener has its ``max_clients`` already, and when it has sent
+    nothing for its ``idle_timeout``."""
 
     def __init__(self, listener: _Listener) -> None:
         super().__init__(  # type: ignore[no-untyped-call]
