@@ -214,6 +214,23 @@ def test_a_stop_while_a_job_is_being_selected_keeps_it_from_starting(tmp_path: P
     asyncio.run(main())
 
 
+def test_a_command_taken_just_before_a_stop_is_not_sent_after_it(tmp_path: Path) -> None:
+    """Two writes in one go (servo on, then a stop) before the first has begun to run: the
+    servo must not go out after the stop."""
+
+    async def main() -> None:
+        async with cell(tmp_path, commands={"enabled": True, "allow": ALL}) as c:
+            runner = c.server.faces["modbus"].ports["cell1"].runner  # type: ignore[attr-defined]
+            runner.submit([SERVO, 1, 1, 0, 0, 0, 0, 0, 0, 1])
+            runner.submit([STOP_JOB, 1, 0, 0, 0, 0, 0, 0, 0, 2])  # same tick: servo not begun
+            await until(lambda: not runner.tasks)
+            assert c.sim.controller.executions.get("DB", 0) == 0
+            assert c.sim.controller.executions.get("CD", 0) == 1
+            assert _outcome(await c.result(2)) is Outcome.DONE
+
+    asyncio.run(main())
+
+
 def test_the_first_sequence_after_a_start_is_not_run(tmp_path: Path) -> None:
     """A PLC that writes its block every cycle writes the last command again after the face
     restarts: that block must not run a second time."""

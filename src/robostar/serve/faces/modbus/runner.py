@@ -128,7 +128,8 @@ class CommandRunner:
             self._stops += 1
             self.line.withdraw(self.who, f"modbus sequence {sequence} is a stop")
         task = asyncio.get_running_loop().create_task(
-            self._run(request), name=f"modbus {self.line.name} {request.name} #{sequence}"
+            self._run(request, self._stops),
+            name=f"modbus {self.line.name} {request.name} #{sequence}",
         )
         self.tasks.add(task)
         task.add_done_callback(self.tasks.discard)
@@ -166,8 +167,9 @@ class CommandRunner:
         self.registers[HR.TEXT - HR.WRITABLE :] = text_words(text, TEXT_REGISTERS)
         self._set(HR.DONE_SEQUENCE, sequence)  # last: a PLC that sees it sees the rest too
 
-    async def _run(self, request: Request) -> None:
-        stops = self._stops
+    async def _run(self, request: Request, stops: int) -> None:
+        """Run ``request``, taken when ``stops`` stops had been: any later stop ends it before
+        its next command goes out."""
         try:
             for command in await self._commands(request):
                 if self._stops != stops:
