@@ -188,6 +188,49 @@ def test_a_command_while_another_runs_is_busy_but_a_stop_runs(tmp_path: Path) ->
     asyncio.run(main())
 
 
+def test_a_stop_while_a_job_is_being_selected_keeps_it_from_starting(tmp_path: Path) -> None:
+    """run_job is DC then CC: a stop written while DC is on the wire must keep CC from going
+    out after it, and the selection ending after the stop must not put its own number back
+    in done_sequence (the PLC waits for the stop's)."""
+
+    async def main() -> None:
+        async with cell(tmp_path, commands={"enabled": True, "allow": ALL}) as c:
+            await _waiting_job(c)
+            await c.write_block([RUN_JOB, 1, 7, 0, 0, 0, 0, 0, 0, 1])
+            await until(lambda: c.sim.controller.executions.get("DC", 0) == 1)
+            result = await c.command(STOP_JOB, 1, sequence=2)
+            assert _outcome(result) is Outcome.DONE, _text(result)
+            runner = c.server.faces["modbus"].ports["cell1"].runner  # type: ignore[attr-defined]
+            await until(lambda: not runner.tasks)  # run_job has ended too
+            assert c.sim.controller.executions.get("CC", 0) == 0
+            assert not _running(c)
+            result = await c.result(2)
+            assert result[HR.ACCEPTED_SEQUENCE - HR.WRITABLE] == 2
+            assert _outcome(result) is Outcome.DONE
+            records = [json.loads(line) for line in c.audit.read_text().splitlines()]
+            (start,) = [r for r in records if r["what"].startswith("modbus run_job")]
+            assert start["outcome"].startswith("refused: a stop came")  # in the audit log
+
+    asyncio.run(main())
+
+
+def test_a_command_taken_just_before_a_stop_is_not_sent_after_it(tmp_path: Path) -> None:
+    """Two writes in one go (servo on, then a stop) before the first has begun to run: the
+    servo must not go out after the stop."""
+
+    async def main() -> None:
+        async with cell(tmp_path, commands={"enabled": True, "allow": ALL}) as c:
+            runner = c.server.faces["modbus"].ports["cell1"].runner  # type: ignore[attr-defined]
+            runner.submit([SERVO, 1, 1, 0, 0, 0, 0, 0, 0, 1])
+            runner.submit([STOP_JOB, 1, 0, 0, 0, 0, 0, 0, 0, 2])  # same tick: servo not begun
+            await until(lambda: not runner.tasks)
+            assert c.sim.controller.executions.get("DB", 0) == 0
+            assert c.sim.controller.executions.get("CD", 0) == 1
+            assert _outcome(await c.result(2)) is Outcome.DONE
+
+    asyncio.run(main())
+
+
 def test_the_first_sequence_after_a_start_is_not_run(tmp_path: Path) -> None:
     """A PLC that writes its block every cycle writes the last command again after the face
     restarts: that block must not run a second time."""
@@ -203,6 +246,26 @@ def test_the_first_sequence_after_a_start_is_not_run(tmp_path: Path) -> None:
             await c.write_block([SERVO, 1, 1, 0, 0, 0, 0, 0, 0, 9])  # again: nothing
             assert _outcome(await c.command(SERVO, 1, 1, sequence=10)) is Outcome.DONE
             assert c.sim.controller.executions.get("DB", 0) == 1
+
+    asyncio.run(main())
+
+
+def test_the_plc_homes_a_channel(tmp_path: Path) -> None:
+    """A cell's start: servo on, then origin return, with nobody at the teach pendant."""
+
+    async def main() -> None:
+        allow = ["servo", "home", "stop_homing"]
+        async with cell(tmp_path, commands={"enabled": True, "allow": allow}) as c:
+            assert not c.sim.model.channel(1).origin
+            assert _outcome(await c.command(SERVO, 1, 1, sequence=1)) is Outcome.DONE
+            result = await c.command(14, 1, sequence=2)  # home
+            assert _outcome(result) is Outcome.DONE, _text(result)
+
+            async def origin_shown() -> bool:
+                bits = (await c.plc.read_discrete_inputs(0, count=8)).bits
+                return bool(bits[1])  # ch1.origin
+
+            await until(origin_shown, timeout=30)
 
     asyncio.run(main())
 

@@ -14,11 +14,12 @@ from robostar.commands.control import (
     ResetJob,
     SetSpeed,
     StartJob,
+    StopHoming,
     StopJob,
 )
 from robostar.commands.io import SetOutput
 from robostar.commands.job import Servo
-from robostar.commands.motion import JogStop
+from robostar.commands.motion import Home, JogStop
 from robostar.commands.variables import WriteGlobalFloat, WriteGlobalInt
 from robostar.errors import UsageError
 from robostar.serve.faces.modbus.handshake import CODES, Sequencer, Take, parse_request
@@ -48,13 +49,28 @@ def _words(fmt: str, value: float) -> tuple[int, int]:
         (_block(11), (EmergencyStop(),)),
         (_block(12, 2), (JogStop(2),)),
         (_block(13, 1), (ResetJob(1),)),
+        (_block(14, 2), (Home(2),)),
+        (_block(15, 1), (StopHoming(1),)),
     ],
 )
 def test_each_code_becomes_its_command(block: list[int], expected: tuple[object, ...]) -> None:
     request = parse_request(block)
     assert request.commands == expected
     assert request.name == CODES[block[0]][0]
-    assert request.is_stop == (block[0] in (4, 11, 12))
+    assert request.is_stop == (block[0] in (4, 11, 12, 15))
+
+
+@pytest.mark.parametrize("value", [0.1, 2.675, -1234.567, 99999.99, 0.001, -0.3, 100.0])
+def test_a_plcs_real_is_the_decimal_it_meant(value: float) -> None:
+    """A float32 holds 0.1 as 0.10000000149...: GW must get 0.1, not a refusal as too fine."""
+    (command,) = parse_request(_block(10, 7, *_words(">f", value))).commands
+    assert command == WriteGlobalFloat(7, value)
+    command.encode()
+
+
+def test_a_real_finer_than_the_field_is_still_refused() -> None:
+    with pytest.raises(UsageError, match="finer"):
+        parse_request(_block(10, 0, *_words(">f", 0.1234)))
 
 
 def test_the_job_codes_name_a_job_number_to_look_up() -> None:

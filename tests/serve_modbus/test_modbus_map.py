@@ -52,12 +52,13 @@ def test_the_cli_prints_every_field() -> None:
     result = runner.invoke(cli, ["serve", "modbus-map", "--format", "csv", "--ints", "0:4"])
     assert result.exit_code == 0, result.output
     rows = list(csv.DictReader(io.StringIO(result.output)))
-    assert len(rows) == len(register_map(GlobalRange(0, 4)))
-    assert {"table", "address", "plc", "type", "access", "name"} <= set(rows[0])
+    assert {"table", "address", "plc", "count", "type", "access", "name"} <= set(rows[0])
+    tags = [(row["table"], row["name"]) for row in rows]
+    assert len(tags) == len(set(tags))
     names = {row["name"] for row in rows}
     assert {"map_version", "ch1.position.1", "global.int.3", "cmd.sequence"} <= names
-    version = next(row for row in rows if row["name"] == "map_version")
-    assert version["plc"] == "30001"
+    by_name = {row["name"]: row for row in rows}
+    assert by_name["map_version"]["plc"] == "30001"
     result = runner.invoke(cli, ["serve", "modbus-map", "--format", "markdown"])
     assert result.exit_code == 0, result.output
     assert f"version {MAP_VERSION}" in result.output
@@ -67,6 +68,29 @@ def test_the_cli_prints_every_field() -> None:
     assert result.exit_code != 0 and "FIRST:COUNT" in result.output
     result = runner.invoke(cli, ["serve", "modbus-map", "--floats", "0:101"])
     assert result.exit_code != 0 and "100" in result.output
+
+
+def test_the_csv_is_a_tag_a_row_with_numbers_a_tool_imports() -> None:
+    """A PLC tool's import takes a number in the address column, not "100-115"."""
+    result = CliRunner().invoke(cli, ["serve", "modbus-map", "--format", "csv", "--ints", "0:4"])
+    rows = list(csv.DictReader(io.StringIO(result.output)))
+    for row in rows:
+        assert row["address"].isdigit() and row["plc"].isdigit(), row
+    by_name = {row["name"]: row for row in rows}
+    contact = by_name["io.in.1.3"]  # one tag per contact of a port
+    assert (contact["table"], contact["address"], contact["plc"]) == (
+        "discrete input",
+        "119",
+        "10120",
+    )
+    assert by_name["alarms.code.8"]["address"] == "408"
+    x = by_name["ch1.position.1"]  # a float: one tag of two registers
+    assert (x["address"], x["plc"], x["count"], x["type"]) == ("112", "30113", "2", "float32")
+    tags = sum(
+        1 if f.type in ("float32", "int32", "uint32") or f.type.startswith("ascii") else f.words
+        for f in register_map(GlobalRange(0, 4))
+    )
+    assert len(rows) == tags
 
 
 def test_the_settings_are_checked_key_by_key() -> None:
@@ -83,6 +107,7 @@ def test_the_settings_are_checked_key_by_key() -> None:
         ({**lines, "globals": {"float": {"first": 499, "count": 2}}}, "modbus.globals.float"),
         ({**lines, "commands": {"enabled": True, "allow": ["dance"]}}, "modbus.commands.allow"),
         ({**lines, "globals_interval": 0}, "modbus.globals_interval"),
+        ({**lines, "commands": {"enabled": True, "allow": ["run_job"]}}, "without stop_job"),
     ]
     for options, key in bad:
         with pytest.raises(UsageError, match=key):

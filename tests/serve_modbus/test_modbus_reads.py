@@ -91,6 +91,12 @@ def test_every_block_reads_as_the_model_holds_it(tmp_path: Path) -> None:
             assert alarms[0] >= 1 and 1153 in alarms[1:]
             io = await c.input_registers(IR.INPUTS, 10)
             assert io[1] == 1 << 3 and io[5] == 1 << 15
+            model.inputs[2][0] = True  # port 2 is not polled: it reads 0, and the map says so
+            await c.line.wait_polled()
+            await c.line.wait_polled()
+            (polled,) = await c.input_registers(IR.IO_POLLED, 1)
+            assert polled == 0b00011  # the cell polls ports 0 and 1
+            assert (await c.input_registers(IR.INPUTS + 2, 1)) == [0]
             ints = await c.input_registers(IR.GLOBAL_INTS, 4)
             assert [_int32(ints[0:2]), _int32(ints[2:4])] == [-70000, 12]
             floats = await c.input_registers(IR.GLOBAL_FLOATS, 2)

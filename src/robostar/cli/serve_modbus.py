@@ -15,16 +15,40 @@ __all__ = ["modbus_map", "render_map"]
 _COLUMNS = ("table", "address", "plc", "count", "type", "access", "name", "description")
 
 
-def _rows(ints: tuple[int, int], floats: tuple[int, int]) -> list[tuple[str, ...]]:
+def _elements(name: str, words: int) -> list[str] | None:
+    """The names of a group's elements (``io.in.0.0-15``: ``io.in.0.0`` to ``io.in.0.15``),
+    None for a field that is one value (a float, a text)."""
+    prefix, dot, span = name.rpartition(".")
+    first, dash, last = span.partition("-")
+    if not dot or not dash or not first.isdigit() or not last.isdigit():
+        return None
+    if int(last) - int(first) + 1 != words:
+        return None
+    return [f"{prefix}.{n}" for n in range(int(first), int(last) + 1)]
+
+
+def _rows(
+    ints: tuple[int, int], floats: tuple[int, int], *, per_tag: bool = False
+) -> list[tuple[str, ...]]:
+    """The map's rows: a field a row, its addresses as ranges (``100-115``); or, ``per_tag``
+    (for a PLC tool's import), a row per tag with its first address alone: a group of bits or
+    codes is a tag per element, a float or a text one tag of ``count`` registers."""
     from robostar.serve.faces.modbus.layout import GlobalRange, register_map
 
     rows: list[tuple[str, ...]] = []
     for f in register_map(GlobalRange(*ints), GlobalRange(*floats)):
-        span = str(f.address) if f.words == 1 else f"{f.address}-{f.last}"
-        plc = (
-            str(f.plc_address) if f.words == 1 else f"{f.plc_address}-{f.plc_address + f.words - 1}"
-        )
         access = "read/write" if f.writable else "read"
+        names = _elements(f.name, f.words) if per_tag else None
+        if names is not None:
+            for n, name in enumerate(names):
+                address, plc = str(f.address + n), str(f.plc_address + n)
+                rows.append((f.table.value, address, plc, "1", f.type, access, name, f.description))
+            continue
+        if per_tag or f.words == 1:
+            span, plc = str(f.address), str(f.plc_address)
+        else:
+            span = f"{f.address}-{f.last}"
+            plc = f"{f.plc_address}-{f.plc_address + f.words - 1}"
         rows.append((f.table.value, span, plc, str(f.words), f.type, access, f.name, f.description))
     return rows
 
@@ -61,17 +85,19 @@ def _table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> str:
 
 
 def render_map(fmt: str, ints: tuple[int, int] = (0, 0), floats: tuple[int, int] = (0, 0)) -> str:
-    """The map as ``table``, ``csv`` (one row per field, for a PLC tool's import) or
+    """The map as ``table``, ``csv`` (one row per tag, its first address a number, for a PLC
+    tool's import) or
     ``markdown`` (the map and the code tables, as docs/modbus.md shows them)."""
     from robostar.serve.faces.modbus.layout import MAP_VERSION
 
-    rows = _rows(ints, floats)
     if fmt == "csv":
+        rows = _rows(ints, floats, per_tag=True)
         buffer = io.StringIO()
         writer = csv.writer(buffer, lineterminator="\n")
         writer.writerow(_COLUMNS)
         writer.writerows(rows)
         return buffer.getvalue()
+    rows = _rows(ints, floats)
     render = _markdown if fmt == "markdown" else _table
     heading = "### " if fmt == "markdown" else ""
     parts = [f"{heading}Modbus register map, version {MAP_VERSION}", render(_COLUMNS, rows)]

@@ -175,7 +175,14 @@ class ModbusFace:
         try:
             for name, (host, port) in self.settings.lines.items():
                 line_port = LinePort(self.server.line(name), self.settings)
-                modbus = RegisterServer(name, line_port, writes=self.settings.writes)
+                modbus = RegisterServer(
+                    name,
+                    line_port,
+                    writes=self.settings.writes,
+                    max_clients=self.settings.max_clients,
+                    idle_timeout=self.settings.idle_timeout,
+                    allow_from=self.settings.allow_from,
+                )
                 self.addresses[name] = await modbus.start(
                     host, port, allow_remote=self.settings.allow_remote
                 )

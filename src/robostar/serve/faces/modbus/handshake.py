@@ -16,9 +16,12 @@ number; each new sequence number runs its command once (sans-IO: registers in, a
 | 11 | ``estop`` | | | | CF (a stop) |
 | 12 | ``jog_stop`` | channel | | | BG (a stop) |
 | 13 | ``reset_job`` | channel | | | CE |
+| 14 | ``home`` | channel | | | BA (origin return; done when it has started) |
+| 15 | ``stop_homing`` | channel | | | CI (a stop) |
 
-Stops (``stop_job``, ``estop``, ``jog_stop``) need no lease and go ahead of everything on the
-line, as on every face; they also run while another command of the PLC is still running.
+Stops (``stop_job``, ``estop``, ``jog_stop``, ``stop_homing``) need no lease and go ahead of
+everything on the line, as on every face; they also run while another command of the PLC is
+still running.
 """
 
 from __future__ import annotations
@@ -36,11 +39,12 @@ from robostar.commands.control import (
     ResetJob,
     SetSpeed,
     StartJob,
+    StopHoming,
     StopJob,
 )
 from robostar.commands.io import SetOutput
 from robostar.commands.job import Servo
-from robostar.commands.motion import JogStop
+from robostar.commands.motion import Home, JogStop
 from robostar.commands.variables import WriteGlobalFloat, WriteGlobalInt
 from robostar.errors import UsageError
 from robostar.serve.faces.modbus.layout import HR
@@ -66,9 +70,19 @@ def _int32(high: int, low: int) -> int:
 
 
 def _float32(high: int, low: int) -> float:
-    value = float(struct.unpack(">f", struct.pack(">HH", high, low))[0])
+    """The PLC's REAL as the decimal it meant: the shortest one that is the same float32.
+
+    A float32 holds few decimals exactly (0.1 arrives as 0.10000000149011612), and GW refuses
+    a value finer than 0.001 rather than round it; so 0.1 is taken as 0.1, but 0.1234 (a
+    float32 of its own) is still refused as finer than the field."""
+    data = struct.pack(">HH", high, low)
+    value = float(struct.unpack(">f", data)[0])
     if value != value or value in (float("inf"), float("-inf")):
         raise UsageError("value: not a finite float")
+    for digits in range(1, 10):  # 9 significant digits always read back as the same float32
+        shortest = float(f"{value:.{digits}g}")
+        if struct.pack(">f", shortest) == data:
+            return shortest
     return value
 
 
@@ -127,11 +141,13 @@ CODES: dict[int, tuple[str, Callable[[int, int, Sequence[int]], Request]]] = {
     11: ("estop", _plain("estop", lambda p: EmergencyStop())),
     12: ("jog_stop", _plain("jog_stop", lambda p: JogStop(p[0]))),
     13: ("reset_job", _plain("reset_job", lambda p: ResetJob(p[0]))),
+    14: ("home", _plain("home", lambda p: Home(p[0]))),
+    15: ("stop_homing", _plain("stop_homing", lambda p: StopHoming(p[0]))),
 }
 """Every command the face can take, by code (the allowlist picks among them by name)."""
 
 NAMES = frozenset(name for name, _ in CODES.values())
-STOP_NAMES = frozenset(("stop_job", "estop", "jog_stop"))
+STOP_NAMES = frozenset(("stop_job", "estop", "jog_stop", "stop_homing"))
 
 
 def parse_request(registers: Sequence[int]) -> Request:

@@ -34,6 +34,7 @@ __all__ = ["AGE_NONE", "Image", "ImageInputs", "build_image", "float_words", "te
 AGE_NONE = 0xFFFF
 """The age register of a block with no value (and the ceiling of every age, 65.535 s)."""
 NO_JOB = 0xFFFF
+_ARM_NONE = 2
 
 
 @dataclass
@@ -162,6 +163,7 @@ def build_image(inputs: ImageInputs, now: float) -> Image:
         ir[IR.ALARM_COUNT] = min(len(alarms), 0xFFFF)
         for n, alarm in enumerate(alarms[:ALARM_SLOTS]):
             ir[IR.ALARM_CODES + n] = max(0, min(int(getattr(alarm, "code", 0)), 0xFFFF))
+    ir[IR.IO_POLLED] = sum(1 << port for port in inputs.io_ports if port in IO_PORTS)
     for port in IO_PORTS:
         for side, ir_base, di_base in (
             ("in", IR.INPUTS, DI.INPUTS),
@@ -215,6 +217,7 @@ def _channel(
     step = _value(inputs, f"ch{ch}/step")
     if isinstance(step, int):
         ir[base + IR.STEP] = max(0, min(step, 0xFFFF))
+    ir[base + IR.ARM] = _ARM_NONE  # until a position says otherwise (0 would say "left")
     for key, count_at, arm_at, first in (
         ("position", IR.XY_AXES, IR.ARM, IR.XY),
         ("angles", IR.ANGLE_AXES, None, IR.ANGLES),
@@ -225,6 +228,6 @@ def _channel(
             continue
         ir[base + count_at] = min(len(axes), AXES)
         if arm_at is not None:
-            ir[base + arm_at] = int(getattr(position, "arm", 2))
+            ir[base + arm_at] = int(getattr(position, "arm", _ARM_NONE))
         for i, value in enumerate(axes[:AXES]):
             ir[base + first + 2 * i : base + first + 2 * i + 2] = float_words(float(value))

@@ -208,6 +208,8 @@ class IR:
     ALARM_CODES = 401
     INPUTS = 500
     OUTPUTS = 505
+    IO_POLLED = 510
+    """Bit p: port p is polled by the line; a port not polled reads 0 (not "all off")."""
     GLOBAL_INTS = 1000
     GLOBAL_FLOATS = 1200
     SIZE = 1400
@@ -456,6 +458,16 @@ def register_map(
                     block=io_block,
                 )
             )
+    out.append(
+        Field(
+            ir,
+            IR.IO_POLLED,
+            1,
+            "bits16",
+            "io.polled",
+            "bit p: port p is polled by the line (a port not polled reads 0, whatever its state)",
+        )
+    )
     for n, index in enumerate(ints.indices):
         out.append(
             Field(

@@ -3,7 +3,12 @@ as the PLC's named holder, and the audit log), and its outcome to the result reg
 
 One command of the PLC runs at a time; a new one that comes while another runs is refused as
 busy (reason 6) rather than queued, so that the PLC always knows which of its commands ran.
-Stops are the exception: they run at once, beside anything running, ahead of the line's queue.
+Stops are the exception: they run at once, beside anything running, ahead of the line's queue,
+and what the PLC asked before them and is not on the wire yet never goes out (the CC of a
+run_job still selecting its JOB, a request waiting in the line's queue): it is refused as
+aborted (reason 9).
+The result registers only ever show the newest sequence number's outcome: a command that ends
+after a newer one was taken (a stop, a busy refusal) leaves them alone.
 """
 
 from __future__ import annotations
@@ -81,6 +86,8 @@ class CommandRunner:
         """HR.WRITABLE .. HR.SIZE: done sequence, outcome, flag, reason, accepted, text."""
         self._running: asyncio.Task[None] | None = None
         self._running_sequence = 0
+        self._stops = 0
+        """Stops taken so far: a command whose steps see it change sends no more of them."""
         self.tasks: set[asyncio.Task[None]] = set()
 
     def _set(self, address: int, value: int) -> None:
@@ -115,8 +122,14 @@ class CommandRunner:
             text = f"busy: sequence {self._running_sequence} is still running"
             self._refuse(sequence, _what(request), Reason.BUSY, text)
             return
+        if request.is_stop:
+            # what the PLC asked before the stop and is not on the wire yet must not go out
+            # after it: the steps left of a running command, its request waiting in the queue
+            self._stops += 1
+            self.line.withdraw(self.who, f"modbus sequence {sequence} is a stop")
         task = asyncio.get_running_loop().create_task(
-            self._run(request), name=f"modbus {self.line.name} {request.name} #{sequence}"
+            self._run(request, self._stops),
+            name=f"modbus {self.line.name} {request.name} #{sequence}",
         )
         self.tasks.add(task)
         task.add_done_callback(self.tasks.discard)
@@ -136,15 +149,33 @@ class CommandRunner:
         reason: Reason = Reason.NONE,
         text: str = "",
     ) -> None:
+        if sequence != self.sequencer.last:
+            # a newer number was taken meanwhile (a stop while a job was being selected, a
+            # command refused as busy): its outcome stays, the PLC waits for that one; this
+            # one's is in the audit log
+            log.info(
+                "modbus %s: sequence %d finished (%s) after %s was taken: not published",
+                self.line.name,
+                sequence,
+                outcome.name.lower(),
+                self.sequencer.last,
+            )
+            return
         self._set(HR.OUTCOME, int(outcome))
         self._set(HR.FLAG, flag)
         self._set(HR.REASON, int(reason))
         self.registers[HR.TEXT - HR.WRITABLE :] = text_words(text, TEXT_REGISTERS)
         self._set(HR.DONE_SEQUENCE, sequence)  # last: a PLC that sees it sees the rest too
 
-    async def _run(self, request: Request) -> None:
+    async def _run(self, request: Request, stops: int) -> None:
+        """Run ``request``, taken when ``stops`` stops had been: any later stop ends it before
+        its next command goes out."""
         try:
             for command in await self._commands(request):
+                if self._stops != stops:
+                    raise _Refusal(
+                        Reason.ABORTED, f"a stop came before {command.CODE} was sent: not sent"
+                    )
                 await self.line.execute(command, who=self.who, implicit_lease=True)
         except _Refusal as refusal:
             self._refuse(request.sequence, _what(request), refusal.reason, str(refusal))

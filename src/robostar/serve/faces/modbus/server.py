@@ -7,28 +7,40 @@ registers); its ``action`` hook sees each request before pymodbus answers it and
 registers or answer with an exception. Coils are not mapped: every coil request is answered
 ILLEGAL DATA ADDRESS, as is a write to a read-only register (pymodbus checks that itself) and
 any address past a table's end.
+
+Connections are bounded: one from a peer not in ``allow_from`` (loopback always is) is closed
+at once, as is one past ``max_clients`` (the PLC's client tries again), and one that sends
+nothing for ``idle_timeout`` seconds is closed, so that PLCs that lost power or their cable (a
+half-open connection lives for ever) do not keep the places of the PLCs that come back.
 """
 
 from __future__ import annotations
 
+import asyncio
 import logging
 from collections.abc import Sequence
-from typing import Protocol
+from typing import Any, Protocol
 
 from pymodbus.constants import ExcCodes
+from pymodbus.pdu.device import ModbusDeviceIdentification
 from pymodbus.server import ModbusTcpServer
+from pymodbus.server.requesthandler import ServerRequestHandler
 from pymodbus.simulator import DataType, SimData, SimDevice
 
+from robostar import __version__
 from robostar.errors import UsageError
 from robostar.listen import check_host
 from robostar.serve.faces.modbus.image import Image
-from robostar.serve.faces.modbus.layout import DI, HR, IR
+from robostar.serve.faces.modbus.layout import DI, HR, IR, MAP_VERSION
+from robostar.serve.faces.modbus.settings import Network, admits
 from robostar.transport.url import netloc
 
 __all__ = ["RegisterServer", "RegisterSource"]
 
 log = logging.getLogger("robostar.serve.modbus")
 
+_TURNED_AWAY_WARNING = 60.0
+"""Seconds between two warnings of connections turned away past ``max_clients``."""
 _READ_DI = 2
 _READ_IR = 4
 _HOLDING = frozenset((3, 6, 16, 22, 23))
@@ -51,6 +63,21 @@ class RegisterSource(Protocol):
         """The command block (HR 0-9) after a write that was accepted."""
 
 
+def identity() -> ModbusDeviceIdentification:
+    """What Read Device Identification (function 43/14) and Report Server ID (17) answer, so
+    that a commissioning tool's scan names the server and its map (pymodbus keeps one for the
+    whole process: it names no line)."""
+    return ModbusDeviceIdentification(  # type: ignore[no-untyped-call]
+        info_name={
+            "VendorName": "robostar",
+            "ProductCode": "robostar-serve-modbus",
+            "MajorMinorRevision": __version__,
+            "ProductName": "robostar line server, Modbus TCP face",
+            "ModelName": f"register map version {MAP_VERSION}",
+        }
+    )
+
+
 def _pack_bits(bits: Sequence[bool]) -> list[int]:
     """Bits as pymodbus keeps them: 16 to a register, bit 0 in the lowest bit."""
     words = []
@@ -63,15 +90,130 @@ def _pack_bits(bits: Sequence[bool]) -> list[int]:
     return words
 
 
-class RegisterServer:
-    """The Modbus TCP server of one line (see the module docstring)."""
+class _Connection(ServerRequestHandler):
+    """One client's connection: closed at once when its peer is not in the listener's
+    ``allow_from`` or the listener has its ``max_clients`` already, and when it has sent
+    nothing for its ``idle_timeout``."""
 
-    def __init__(self, name: str, source: RegisterSource, *, writes: bool) -> None:
+    def __init__(self, listener: _Listener) -> None:
+        super().__init__(  # type: ignore[no-untyped-call]
+            listener, listener.trace_packet, listener.trace_pdu, listener.trace_connect
+        )
+        self.owner = listener
+        self.heard = listener.loop.time()
+        self._timer: asyncio.TimerHandle | None = None
+
+    def callback_connected(self) -> None:
+        super().callback_connected()
+        owner = self.owner
+        peer = self.transport.get_extra_info("peername") if self.transport else None
+        if not admits(owner.allow_from, peer):
+            owner.turned_away(f"not in allow_from ({peer[0] if peer else '?'})")
+            self.close()
+            return
+        if len(owner.active_connections) > owner.max_clients:  # this one is counted
+            owner.turned_away(f"{owner.max_clients} clients already (max_clients)")
+            self.close()
+            return
+        if owner.idle_timeout:
+            self._timer = owner.loop.call_later(owner.idle_timeout, self._check_idle)
+
+    def callback_data(self, data: bytes, addr: tuple[Any, ...] | None = None) -> int:
+        self.heard = self.owner.loop.time()
+        return super().callback_data(data, addr)
+
+    def _check_idle(self) -> None:
+        self._timer = None
+        if not self.transport or not self.owner.idle_timeout:
+            return
+        silent = self.owner.loop.time() - self.heard
+        if silent >= self.owner.idle_timeout:
+            log.info(
+                "modbus %s: a connection closed: silent for %.0f s (idle_timeout)",
+                self.owner.line_name,
+                silent,
+            )
+            self.close()
+        else:
+            remaining = self.owner.idle_timeout - silent
+            self._timer = self.owner.loop.call_later(remaining, self._check_idle)
+
+    def _cancel_timer(self) -> None:
+        if self._timer is not None:
+            self._timer.cancel()
+            self._timer = None
+
+    def callback_disconnected(self, exc: Exception | None) -> None:
+        self._cancel_timer()
+        super().callback_disconnected(exc)
+
+    def close(self, reconnect: bool = False) -> None:
+        self._cancel_timer()
+        super().close(reconnect)
+
+
+class _Listener(ModbusTcpServer):
+    """pymodbus's TCP server, its connections bounded (see :class:`_Connection`)."""
+
+    def __init__(
+        self,
+        *args: Any,
+        line_name: str,
+        max_clients: int,
+        idle_timeout: float,
+        allow_from: tuple[Network, ...] | None,
+        **kwargs: Any,
+    ) -> None:
+        super().__init__(*args, **kwargs)
+        self.line_name = line_name
+        self.max_clients = max_clients
+        self.idle_timeout = idle_timeout
+        self.allow_from = allow_from
+        self._turned_away: dict[str, int] = {}
+        self._warned_at: dict[str, float] = {}
+
+    def turned_away(self, why: str) -> None:
+        """Count a connection turned away; say so at most once a minute for each ``why`` (a
+        PLC's client tries again and again, each time turned away)."""
+        self._turned_away[why] = self._turned_away.get(why, 0) + 1
+        now = self.loop.time()
+        warned = self._warned_at.get(why)
+        if warned is not None and now - warned < _TURNED_AWAY_WARNING:
+            return
+        log.warning(
+            "modbus %s: %d connection(s) turned away: %s",
+            self.line_name,
+            self._turned_away.pop(why),
+            why,
+        )
+        self._warned_at[why] = now
+
+    def callback_new_connection(self) -> _Connection:
+        return _Connection(self)
+
+
+class RegisterServer:
+    """The Modbus TCP server of one line (see the module docstring): at most ``max_clients``
+    connections, each closed after ``idle_timeout`` seconds of silence (0: never)."""
+
+    def __init__(
+        self,
+        name: str,
+        source: RegisterSource,
+        *,
+        writes: bool,
+        max_clients: int = 16,
+        idle_timeout: float = 120.0,
+        allow_from: tuple[Network, ...] | None = None,
+    ) -> None:
         self.name = name
+        self.allow_from = allow_from
         self.source = source
         self.writes = writes
+        self.max_clients = max_clients
+        self.idle_timeout = idle_timeout
         self.address: tuple[str, int] | None = None
-        self._server: ModbusTcpServer | None = None
+        self._server: _Listener | None = None
         self._packed: tuple[list[bool], list[int]] | None = None
         """The discrete inputs last packed, and their packing (they change with the model)."""
 
@@ -97,7 +239,15 @@ class RegisterServer:
 
     async def start(self, host: str, port: int, *, allow_remote: bool) -> tuple[str, int]:
         check_host(host, allow_remote)
-        server = ModbusTcpServer(self.device(), address=(host, port))
+        server = _Listener(
+            self.device(),
+            address=(host, port),
+            line_name=self.name,
+            max_clients=self.max_clients,
+            idle_timeout=self.idle_timeout,
+            allow_from=self.allow_from,
+            identity=identity(),
+        )
         try:
             await server.serve_forever(background=True)
         except RuntimeError as exc:
@@ -111,6 +261,11 @@ class RegisterServer:
         bound = sockets[0].getsockname() if sockets else (host, port)
         self.address = (str(bound[0]), int(bound[1]))
         return self.address
+
+    @property
+    def connections(self) -> int:
+        """The clients connected now."""
+        return 0 if self._server is None else len(self._server.active_connections)
 
     async def stop(self) -> None:
         server, self._server = self._server, None

@@ -3,9 +3,13 @@
 ```toml
 [modbus]
 lines = { cell1 = "127.0.0.1:5020" }     # a port per line (--modbus cell1=127.0.0.1:5020)
+# allow_remote = true                    # beyond loopback: then allow_from names the PLCs
+# allow_from = ["192.0.2.7"]             # addresses and networks served (loopback always is)
 holder = "plc"                           # the lease holder's name in the audit log
 globals = { int = { first = 0, count = 16 }, float = { first = 0, count = 8 } }
 globals_interval = 1.0                   # seconds between the face's reads of the globals
+max_clients = 16                         # connections per line's port; more are closed at once
+idle_timeout = 120                       # seconds of silence that close a connection (0: never)
 
 [modbus.commands]
 enabled = true                           # off by default: the command registers are read-only
@@ -15,6 +19,7 @@ allow = ["run_job", "stop_job", "servo", "reset_alarms"]
 
 from __future__ import annotations
 
+import ipaddress
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -25,10 +30,23 @@ from robostar.listen import is_loopback, parse_listen
 from robostar.serve.faces.modbus.handshake import NAMES, STOP_NAMES
 from robostar.serve.faces.modbus.layout import MAX_GLOBALS, GlobalRange
 
-__all__ = ["DEFAULT_ALLOW", "ModbusSettings", "settings_from"]
+__all__ = ["DEFAULT_ALLOW", "ModbusSettings", "Network", "admits", "settings_from"]
+
+Network = ipaddress.IPv4Network | ipaddress.IPv6Network
 
 _OPTIONS = frozenset(
-    ("lines", "allow_remote", "token", "holder", "globals", "globals_interval", "commands")
+    (
+        "lines",
+        "allow_remote",
+        "allow_from",
+        "token",
+        "holder",
+        "globals",
+        "globals_interval",
+        "commands",
+        "max_clients",
+        "idle_timeout",
+    )
 )
 _COMMAND_OPTIONS = frozenset(("enabled", "allow"))
 DEFAULT_ALLOW = tuple(sorted(STOP_NAMES))
@@ -39,12 +57,18 @@ DEFAULT_ALLOW = tuple(sorted(STOP_NAMES))
 class ModbusSettings:
     lines: dict[str, tuple[str, int]]
     allow_remote: bool = False
+    allow_from: tuple[Network, ...] | None = None
+    """The peers served beside loopback (None: any, which only a loopback listener may be)."""
     holder: str = "plc"
     ints: GlobalRange = field(default_factory=GlobalRange)
     floats: GlobalRange = field(default_factory=GlobalRange)
     globals_interval: float = 1.0
     commands: frozenset[str] = frozenset()
     """The commands the PLC may run (empty: writes are off, the command block is read-only)."""
+    max_clients: int = 16
+    """Connections per line's port at once; one more is closed as soon as it opens."""
+    idle_timeout: float = 120.0
+    """Seconds after which a connection that sent nothing is closed (0: never)."""
 
     @property
     def writes(self) -> bool:
@@ -87,6 +111,7 @@ def settings_from(options: Mapping[str, Any], line_names: set[str] | None = None
     allow_remote = options.get("allow_remote", False)
     if not isinstance(allow_remote, bool):
         raise UsageError(f"modbus.allow_remote: {allow_remote!r} is not true or false")
+    allow_from = _networks(options.get("allow_from"))
     lines: dict[str, tuple[str, int]] = {}
     for name, listen in lines_option.items():
         if line_names is not None and name not in line_names:
@@ -100,6 +125,12 @@ def settings_from(options: Mapping[str, Any], line_names: set[str] | None = None
                 " authentication; set allow_remote = true (--allow-remote) to serve other"
                 " machines (then only on a network the cell's PLC alone can reach)"
             )
+        if not is_loopback(host) and allow_from is None:
+            raise UsageError(
+                f"modbus.lines.{name}: {host} is beyond loopback, and Modbus TCP has no"
+                ' authentication: name the PLCs served (modbus.allow_from = ["192.0.2.7",'
+                ' "10.1.0.0/16"])'
+            )
     holder = options.get("holder", "plc")
     if not isinstance(holder, str) or not holder:
         raise UsageError(f"modbus.holder: {holder!r} is not a name")
@@ -109,9 +140,18 @@ def settings_from(options: Mapping[str, Any], line_names: set[str] | None = None
     interval = options.get("globals_interval", 1.0)
     if isinstance(interval, bool) or not isinstance(interval, int | float) or not interval >= 0.1:
         raise UsageError(f"modbus.globals_interval: {interval!r} is not 0.1 s or more")
+    max_clients = options.get("max_clients", 16)
+    if isinstance(max_clients, bool) or not isinstance(max_clients, int) or max_clients < 1:
+        raise UsageError(f"modbus.max_clients: {max_clients!r} is not a whole number of 1 or more")
+    idle = options.get("idle_timeout", 120.0)
+    if isinstance(idle, bool) or not isinstance(idle, int | float) or not idle >= 0:
+        raise UsageError(f"modbus.idle_timeout: {idle!r} is not a number of seconds (0: never)")
     return ModbusSettings(
         lines=lines,
+        max_clients=max_clients,
+        idle_timeout=float(idle),
         allow_remote=allow_remote,
+        allow_from=allow_from,
         holder=holder,
         ints=_range(table.get("int"), "int", ReadGlobalInt),
         floats=_range(table.get("float"), "float", ReadGlobalFloat),
@@ -134,4 +174,44 @@ def _commands(table: Any) -> frozenset[str]:
         raise UsageError(
             f"modbus.commands.allow: {allow!r}: names among {', '.join(sorted(NAMES))}"
         )
+    starts = sorted({"run_job", "start_job"} & set(allow))
+    if starts and "stop_job" not in allow:
+        raise UsageError(
+            f"modbus.commands.allow: {' and '.join(starts)} without stop_job: a PLC that can"
+            " start a JOB must be able to stop it"
+        )
     return frozenset(allow) if enabled else frozenset()
+
+
+def _networks(items: Any) -> tuple[Network, ...] | None:
+    """``["192.0.2.7", "10.1.0.0/16"]`` as networks (a bare address is one host)."""
+    if items is None:
+        return None
+    if not isinstance(items, list):
+        raise UsageError(f"modbus.allow_from: {items!r} is not a list of addresses or networks")
+    networks: list[Network] = []
+    for item in items:
+        try:
+            networks.append(ipaddress.ip_network(str(item).strip(), strict=False))
+        except ValueError:
+            raise UsageError(
+                f"modbus.allow_from: {item!r} is not an address or network"
+                " (e.g. 192.0.2.7, 10.1.0.0/16)"
+            ) from None
+    return tuple(networks)
+
+
+def admits(allow_from: tuple[Network, ...] | None, peername: object) -> bool:
+    """Whether a peer at ``peername`` (a socket address) is served: loopback always, others
+    only when ``allow_from`` names them (None: everyone)."""
+    if allow_from is None:
+        return True
+    if not isinstance(peername, tuple) or not peername:
+        return False
+    try:
+        address = ipaddress.ip_address(str(peername[0]).split("%")[0])
+    except ValueError:
+        return False
+    if isinstance(address, ipaddress.IPv6Address) and address.ipv4_mapped is not None:
+        address = address.ipv4_mapped
+    return address.is_loopback or any(address in network for network in allow_from)
