@@ -48,9 +48,6 @@ class AuditLog:
         if self.path is None or self._file is not None:
             return
         try:
-            # the default folder (the user's state folder) or a face's state_dir may not exist
-            # yet on a new machine: a missing folder is not a reason to refuse every write
-            self.path.parent.mkdir(parents=True, exist_ok=True, mode=0o700)
             self._file = self.path.open("a", encoding="utf-8")
         except OSError as exc:
             self.failure = f"{self.path}: {exc.strerror or exc}"
