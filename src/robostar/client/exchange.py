@@ -130,6 +130,7 @@ class Exchange:
             now,
             once=command.CHANGES_STATE,
             max_packets=command.MAX_PACKETS,
+            distinct=command.DISTINCT_PACKETS,
         )
         if events:
             self._handle(events, now)

@@ -711,12 +711,15 @@ class HostLink(Link):
         self.max_wait = min(max_wait, MAX_ANNOUNCED_WAIT)
         self.abort_gap = abort_gap
         self.shape = Shape.SINGLE
-        self._deferred: tuple[bytes, Shape, bool, int | None] | None = None
+        self._deferred: tuple[bytes, Shape, bool, int | None, bool] | None = None
         self._request_at = 0.0
         self._resync_until = 0.0  # a resync gap, however often restarted, ends by then
         self._limit_at: float | None = None  # the exchange's overall limit
         self._max_packets = 1
         self._packets = 0
+        self._distinct = False  # no two packets of the answer are equal (send_request)
+        self._copies = 0  # copies of this exchange's last packet taken for resends
+        self._progress_by: float | None = None  # MULTI: a new packet must come by then
         self._bytes = 0
         self._maybe_answer = b""  # a read's copy taken for a resend, delivered if nothing else
         self._last_reply = b""  # FB: the controller's last reply to one of our packets
@@ -738,17 +741,21 @@ class HostLink(Link):
         *,
         once: bool = False,
         max_packets: int | None = None,
+        distinct: bool = False,
     ) -> list[LinkEvent]:
         """Start an exchange with a request packet's data (``FF G1 G2 params``).
 
         ``once``: the request changes state, so it is never resent on a NAK that may be a
         doubled one. ``max_packets``: the most answer packets (MULTI; END included) the
         command can carry; past it (or its bytes) the answer is cut with RST (TOO_LONG).
+        ``distinct``: no two packets of the answer are equal, so a copy of the packet just
+        ACKed is the controller resending it however soon it comes (see :data:`MAX_RESENDS`).
         """
         self._now = now
         self._pending_shape = shape
         self._pending_once = once
         self._pending_max = max_packets
+        self._pending_distinct = distinct
         self._fire(Input.SEND_REQUEST, data)
         if self._backlog:
             self._take_backlog()
@@ -844,6 +851,9 @@ class HostLink(Link):
         self._doubt = ""
         self._maybe_answer = b""
         self._packets = self._bytes = 0
+        self._distinct = self._pending_distinct
+        self._copies = 0
+        self._progress_by = None
         if shape is Shape.MULTI:
             max_packets = self._pending_max or MAX_MULTI_PACKETS
         else:
@@ -890,10 +900,14 @@ class HostLink(Link):
         self._clamp()
 
     def _clamp(self) -> None:
-        """No timer of an exchange runs past the exchange's overall limit."""
+        """No timer of an exchange runs past the exchange's overall limit, nor a multi-packet
+        answer's wait past the moment its next new packet is due (``_progress_by``)."""
         limit = self._limit_at
         if limit is not None and self.busy and self._deadline is not None:
             self._deadline = min(self._deadline, limit)
+        progress = self._progress_by
+        if progress is not None and self.state is State.WAIT_MORE and self._deadline is not None:
+            self._deadline = min(self._deadline, progress)
 
     def _finish(self, event: LinkEvent) -> None:
         self._limit_at = None
@@ -973,7 +987,13 @@ class HostLink(Link):
         if self._deferred is not None:
             raise LinkRuleError("host", self.state.value, Input.SEND_REQUEST.value, "one waits")
         encode_packet(data)  # a bad request is refused now, not when the gap ends
-        self._deferred = (data, self._pending_shape, self._pending_once, self._pending_max)
+        self._deferred = (
+            data,
+            self._pending_shape,
+            self._pending_once,
+            self._pending_max,
+            self._pending_distinct,
+        )
         # The gap may be over already (a blocking client's link is not woken between calls).
         self._send_when_due()
 
@@ -1012,7 +1032,13 @@ class HostLink(Link):
         self._stop_at = None
         deferred, self._deferred = self._deferred, None
         if deferred is not None:
-            data, self._pending_shape, self._pending_once, self._pending_max = deferred
+            (
+                data,
+                self._pending_shape,
+                self._pending_once,
+                self._pending_max,
+                self._pending_distinct,
+            ) = deferred
             self._h_send_request(data)
             self._stop_early = early
 
@@ -1085,7 +1111,24 @@ class HostLink(Link):
             # arriving. Not ACKed (the controller dropped that exchange at our RST).
             self._emit(Ignored("stale packet with data in a stop's answer", self.state))
             return
-        if data == self._last_received and self._is_resend(data, self._now):
+        if data == self._last_received and (
+            (self._distinct and self._packets) or self._is_resend(data, self._now)
+        ):
+            if self._packets:
+                # A copy of a packet of this exchange: the controller resends an unacknowledged
+                # packet at most MAX_RESENDS times; a copy beyond that is no resend.
+                self._copies += 1
+                if self._copies > MAX_RESENDS:
+                    self._rule_broken(
+                        LinkRuleError(
+                            "host",
+                            self.state.value,
+                            "packet",
+                            f"copy {self._copies + 1} of one packet: a controller resends at "
+                            f"most {MAX_RESENDS} times",
+                        )
+                    )
+                    return
             self._ack(data)
             self._emit(Ignored("resent answer (ACKed again)", self.state))
             if self.state is State.WAIT_ANSWER and not self._send_once:
@@ -1110,6 +1153,7 @@ class HostLink(Link):
             return
         self._packets += 1
         self._bytes += len(data)
+        self._copies = 0
         if self._packets > self._max_packets or self._bytes > self._max_packets * MAX_PACKET:
             what = f"{self._packets} packets, {self._bytes} bytes"
             limit = f"{self._max_packets} packets of at most {MAX_PACKET} bytes"
@@ -1128,6 +1172,11 @@ class HostLink(Link):
             else:
                 self._emit(AnswerReceived(data, flag, final=False))
                 self.state = State.WAIT_MORE
+                # Progress, not only the overall limit: by then a controller resending this
+                # packet (our ACK lost) has given up, so a new packet must have come.
+                self._progress_by = (
+                    self._now + (MAX_RESENDS + 1) * self.peer_resend_after + self.resend_grace
+                )
                 self._arm(self.timeout + self.resend_grace)
             return
         if flag == FLAG_END:
@@ -1167,6 +1216,12 @@ class HostLink(Link):
             return
         if self._limit_at is not None and self._now >= self._limit_at:
             detail = "the exchange ran past its overall limit"
+        elif (
+            self.state is State.WAIT_MORE
+            and self._progress_by is not None
+            and self._now >= self._progress_by
+        ):
+            detail = "no new packet since a resending controller would have given up"
         else:
             detail = f"no answer within {self.timeout:g} s"
         if self._doubt:
