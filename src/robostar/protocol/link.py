@@ -47,6 +47,7 @@ __all__ = [
     "ExchangeComplete",
     "ExchangeFailed",
     "FailReason",
+    "Fence",
     "HostLink",
     "Ignored",
     "Input",
@@ -97,6 +98,7 @@ class State(enum.Enum):
     WAIT_ANSWER = "WAIT_ANSWER"
     WAIT_MORE = "WAIT_MORE"
     WAIT_SECOND = "WAIT_SECOND"
+    WAIT_FENCE = "WAIT_FENCE"
     UPLOAD_WAIT_REPLY = "UPLOAD_WAIT_REPLY"
     UPLOAD_READY = "UPLOAD_READY"
     UPLOAD_WAIT_ACK = "UPLOAD_WAIT_ACK"
@@ -235,6 +237,23 @@ class Ignored:
     state: State
 
 
+@dataclass(frozen=True, slots=True)
+class Fence:
+    """A read the host sends before its next request after an abandoned exchange, whose
+    answer no other request's answer can be taken for (``accepts``). Whatever arrives before
+    that answer belongs to an exchange the host gave up, and is dropped; after it, the line
+    holds nothing old (the controller answers in order), and the request goes out."""
+
+    request: bytes
+    """The read's packet data, ``FF G1 G2 params``."""
+    accepts: Callable[[bytes], bool]
+    """True for an answer packet (flag 0x30) that only this read can have."""
+
+    @property
+    def code(self) -> bytes:
+        return self.request[1:3]
+
+
 LinkEvent = (
     AnswerReceived
     | UploadReady
@@ -281,6 +300,13 @@ TRANSITIONS: dict[tuple[Role, State, Input], str] = {
     (_H, State.WAIT_SECOND, Input.RST): "_reset_by_peer",
     (_H, State.WAIT_SECOND, Input.TIMEOUT): "_h_timeout",
     (_H, State.WAIT_SECOND, Input.ABORT): "_abort",
+    (_H, State.WAIT_FENCE, Input.PACKET): "_h_fence_answer",
+    (_H, State.WAIT_FENCE, Input.CORRUPT): "_nak_corrupt",
+    (_H, State.WAIT_FENCE, Input.NAK): "_resend",
+    (_H, State.WAIT_FENCE, Input.ACK): "_ignore",
+    (_H, State.WAIT_FENCE, Input.RST): "_reset_by_peer",
+    (_H, State.WAIT_FENCE, Input.TIMEOUT): "_h_timeout",
+    (_H, State.WAIT_FENCE, Input.ABORT): "_abort",
     (_H, State.UPLOAD_WAIT_REPLY, Input.PACKET): "_h_upload_reply",
     (_H, State.UPLOAD_WAIT_REPLY, Input.CORRUPT): "_nak_corrupt",
     (_H, State.UPLOAD_WAIT_REPLY, Input.NAK): "_resend",
@@ -702,6 +728,7 @@ class HostLink(Link):
         peer_resend_after: float | None = None,
         max_wait: float = MAX_ANNOUNCED_WAIT,
         abort_gap: float = 0.05,
+        fences: Sequence[Fence] = (),
     ):
         super().__init__(timeout=timeout, resend_gap=resend_gap)
         self.resync_gap = resync_gap
@@ -711,6 +738,15 @@ class HostLink(Link):
         self.max_wait = min(max_wait, MAX_ANNOUNCED_WAIT)
         self.abort_gap = abort_gap
         self.shape = Shape.SINGLE
+        self.fences = tuple(fences)
+        """The reads that fence off an abandoned exchange (:class:`Fence`), in the order of
+        preference; none: no fence (the quiet gap alone guards the next request)."""
+        self._abandoned: dict[bytes, None] = {}  # codes of requests given up, oldest first
+        self._fence: Fence | None = None  # WAIT_FENCE: the fence sent
+        self._fenced: tuple[bytes, Shape, bool, int | None, bool] | None = None  # held behind it
+        self._sent_code = b""  # G1 G2 of the request sent last
+        self._sent_request = b""  # and its data
+        self._given_up_request = b""  # the request given up last
         self._deferred: tuple[bytes, Shape, bool, int | None, bool] | None = None
         self._request_at = 0.0
         self._resync_until = 0.0  # a resync gap, however often restarted, ends by then
@@ -722,6 +758,7 @@ class HostLink(Link):
         self._progress_by: float | None = None  # MULTI: a new packet must come by then
         self._bytes = 0
         self._maybe_answer = b""  # a read's copy taken for a resend, delivered if nothing else
+        self._maybe_copies = 0  # copies of the previous answer in this exchange's WAIT_ANSWER
         self._last_reply = b""  # FB: the controller's last reply to one of our packets
         self._aborting = False
         self._quiet_at = 0.0  # RESYNC: when the line will have been quiet for the whole gap
@@ -843,6 +880,55 @@ class HostLink(Link):
 
     # -- handlers --------------------------------------------------------------------------
     def _h_send_request(self, data: bytes) -> None:
+        if self._abandoned and self._needs_fence(data):
+            # An exchange was given up since the last clean answer: its answer may still come.
+            # A fence read first; the request waits behind it (stops never do).
+            self._fenced = (
+                data,
+                self._pending_shape,
+                self._pending_once,
+                self._pending_max,
+                self._pending_distinct,
+            )
+            fence = self._fence = self._pick_fence()
+            self._pending_shape, self._pending_once = Shape.SINGLE, False
+            self._pending_max, self._pending_distinct = None, False
+            self._start(fence.request)
+            self.state = State.WAIT_FENCE
+            return
+        self._start(data)
+
+    def _pick_fence(self) -> Fence:
+        """The first fence whose own read was not given up (its answer could be late too); if
+        every one was, the one given up longest ago."""
+        abandoned = self._abandoned
+        for fence in self.fences:
+            if fence.code not in abandoned:
+                return fence
+        order = list(abandoned)
+        return min(self.fences, key=lambda fence: order.index(fence.code))
+
+    def _h_fence_answer(self, data: bytes) -> None:
+        self._good_packet()
+        fence = self._fence
+        assert fence is not None and self._fenced is not None
+        if _flag_of(data) != FLAG_OK or not fence.accepts(data):
+            # Sent before the fence's answer, so by an exchange we gave up: dropped, not ACKed
+            # (the controller dropped that exchange at our RST, or at the fence's request).
+            self._emit(Ignored("stale packet before the fence's answer (dropped)", self.state))
+            return
+        self._ack(data)
+        self._abandoned.clear()
+        self._fence = None
+        fenced, self._fenced = self._fenced, None
+        data, self._pending_shape, self._pending_once, self._pending_max = fenced[:4]
+        self._pending_distinct = fenced[4]
+        self._start(data)
+
+    def _start(self, data: bytes) -> None:
+        """Send the request ``data`` with the pending shape and limits: the exchange opens."""
+        self._sent_code = data[1:3]
+        self._sent_request = data
         shape = self.shape = self._pending_shape
         now = self._now
         self._corrupt = 0
@@ -850,6 +936,7 @@ class HostLink(Link):
         self._send_once = self._pending_once or shape is Shape.UPLOAD
         self._doubt = ""
         self._maybe_answer = b""
+        self._maybe_copies = 0
         self._packets = self._bytes = 0
         self._distinct = self._pending_distinct
         self._copies = 0
@@ -926,6 +1013,11 @@ class HostLink(Link):
         error: LinkRuleError | None = None,
     ) -> None:
         self._limit_at = None
+        if send_rst and self.state not in _NOT_BUSY:
+            self._given_up()
+            if self.state is State.WAIT_FENCE:
+                self._fence = self._fenced = None
+                detail = f"{detail}; the fence before the request failed: it was not sent"
         super()._fail(reason, detail, send_rst=send_rst, error=error)
         if self._stop_early:
             self._after_early_stop()
@@ -1042,6 +1134,23 @@ class HostLink(Link):
             self._h_send_request(data)
             self._stop_early = early
 
+    def _given_up(self) -> None:
+        """This end gave up the request sent last (with its RST): its answer may still come."""
+        code = self._sent_code
+        self._abandoned.pop(code, None)
+        self._abandoned[code] = None
+        self._given_up_request = self._sent_request
+
+    def _needs_fence(self, data: bytes) -> bool:
+        """Must ``data`` wait behind a fence? When an exchange was given up since the last
+        fence, unless ``data`` is a stop (never held back) or the very request given up, alone
+        (a retry: a late answer of the first try answers the same question; the given-up
+        mark stays, so the next other request is fenced)."""
+        abandoned = self._abandoned
+        if not abandoned or not self.fences or data[1:3] in EARLY_CODES:
+            return False
+        return len(abandoned) > 1 or data != self._given_up_request
+
     def _h_stray_packet(self, data: bytes) -> None:
         # An intact packet outside an exchange. A copy of the last answer we ACKed is the
         # controller resending it (our ACK was lost): ACK it again so that it stops. Anything
@@ -1134,7 +1243,11 @@ class HostLink(Link):
             if self.state is State.WAIT_ANSWER and not self._send_once:
                 # It could also be a very slow controller's answer: a read takes it if no
                 # other answer comes (a state change would rather be unknown than wrong).
-                self._maybe_answer = data
+                # Not when it came again (a slow controller answers once; a resending one
+                # up to MAX_RESENDS times), nor an END to an exchange that has none.
+                self._maybe_copies += 1
+                fits = self.shape is Shape.MULTI or _flag_of(data) != FLAG_END
+                self._maybe_answer = data if self._maybe_copies == 1 and fits else b""
             # Never shorten the wait: in WAIT_SECOND it runs to the announced work time.
             self._extend(self.timeout + self.resend_grace)
             return
