@@ -23,6 +23,7 @@ a link never sends its application's packet once it has read such input in the t
 from __future__ import annotations
 
 import enum
+import os
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
@@ -547,7 +548,12 @@ scenario = st.tuples(
     st.sampled_from([0.0, 0.004, 0.05]),
 )
 
-SETTINGS = settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+EXAMPLES = int(os.environ.get("ROBOSTAR_PROPERTY_EXAMPLES", "300"))
+"""Examples per property test: 300 in the suite; ``reliability/run.py properties --examples N``
+runs many more, not derandomized."""
+SETTINGS = settings(
+    max_examples=EXAMPLES, deadline=None, suppress_health_check=[HealthCheck.too_slow]
+)
 
 
 @SETTINGS

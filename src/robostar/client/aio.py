@@ -137,18 +137,21 @@ class AsyncClient(AsyncOperations, ClientBase):
                     request = plan.send(outcome)
                 except StopIteration as done:
                     return cast(R, done.value)
-                exchange = await self._exchange(request, progress if request is command else None)
+                again = request is command  # a retry: the rules ask for the same call again
+                exchange = await self._exchange(request, progress if again else None, retry=again)
                 outcome = exchange.outcome()
         finally:
             lock.release()
 
     # -- the line -------------------------------------------------------------------------
-    async def _exchange(self, command: Command[Any], progress: Progress | None) -> Exchange:
+    async def _exchange(
+        self, command: Command[Any], progress: Progress | None, *, retry: bool = False
+    ) -> Exchange:
         """One exchange, as one loop (the asyncio twin of Client._exchange)."""
         transport = self.transport
         traced = self._trace is not None
         link = self._link
-        exchange = Exchange(link, command, progress)
+        exchange = Exchange(link, command, progress, retry=retry)
         written = False
         clock = time.monotonic
         # A clean single answer is ACKed where it lands, a loop turn before this task resumes

@@ -92,15 +92,23 @@ class Exchange:
         "link",
         "progress",
         "request",
+        "retry",
         "upload",
     )
 
     def __init__(
-        self, link: HostLink, command: Command[Any], progress: Progress | None = None
+        self,
+        link: HostLink,
+        command: Command[Any],
+        progress: Progress | None = None,
+        *,
+        retry: bool = False,
     ) -> None:
         self.link = link
         self.command = command
         self.progress = progress
+        self.retry = retry
+        """The rules ask for the same command again (a read whose answer was lost)."""
         # Encoding checks every field; a bad one raises FieldError before anything is written.
         self.request = command.encode()
         shape = command.SHAPE
@@ -131,6 +139,7 @@ class Exchange:
             once=command.CHANGES_STATE,
             max_packets=command.MAX_PACKETS,
             distinct=command.DISTINCT_PACKETS,
+            retry=self.retry,
         )
         if events:
             self._handle(events, now)

@@ -145,19 +145,22 @@ class Client(SyncOperations, ClientBase):
                     request = plan.send(outcome)
                 except StopIteration as done:
                     return cast(R, done.value)
-                exchange = self._exchange(request, progress if request is command else None)
+                again = request is command  # a retry: the rules ask for the same call again
+                exchange = self._exchange(request, progress if again else None, retry=again)
                 outcome = exchange.outcome()
         finally:
             lock.release()
 
     # -- the line -------------------------------------------------------------------------
-    def _exchange(self, command: Command[Any], progress: Progress | None) -> Exchange:
+    def _exchange(
+        self, command: Command[Any], progress: Progress | None, *, retry: bool = False
+    ) -> Exchange:
         """One exchange, as one loop: stray input first, the request, then answers until the
         link says the exchange is over (see core.ClientBase for the rules it shares)."""
         transport = self.transport
         traced = self._trace is not None
         link = self._link
-        exchange = Exchange(link, command, progress)
+        exchange = Exchange(link, command, progress, retry=retry)
         written = False
         clock = time.monotonic
         try:

@@ -779,6 +779,7 @@ class HostLink(Link):
         once: bool = False,
         max_packets: int | None = None,
         distinct: bool = False,
+        retry: bool = False,
     ) -> list[LinkEvent]:
         """Start an exchange with a request packet's data (``FF G1 G2 params``).
 
@@ -787,12 +788,15 @@ class HostLink(Link):
         command can carry; past it (or its bytes) the answer is cut with RST (TOO_LONG).
         ``distinct``: no two packets of the answer are equal, so a copy of the packet just
         ACKed is the controller resending it however soon it comes (see :data:`MAX_RESENDS`).
+        ``retry``: the application asks the same question again (the same call): the request
+        given up last, sent again, needs no fence (a late answer to it answers this call).
         """
         self._now = now
         self._pending_shape = shape
         self._pending_once = once
         self._pending_max = max_packets
         self._pending_distinct = distinct
+        self._pending_retry = retry
         self._fire(Input.SEND_REQUEST, data)
         if self._backlog:
             self._take_backlog()
@@ -1143,13 +1147,14 @@ class HostLink(Link):
 
     def _needs_fence(self, data: bytes) -> bool:
         """Must ``data`` wait behind a fence? When an exchange was given up since the last
-        fence, unless ``data`` is a stop (never held back) or the very request given up, alone
-        (a retry: a late answer of the first try answers the same question; the given-up
-        mark stays, so the next other request is fenced)."""
+        fence, unless ``data`` is a stop (never held back) or the application's retry of the
+        very request given up, alone (a late answer of the first try answers the same call;
+        the given-up mark stays, so the next other request or call is fenced)."""
         abandoned = self._abandoned
         if not abandoned or not self.fences or data[1:3] in EARLY_CODES:
             return False
-        return len(abandoned) > 1 or data != self._given_up_request
+        retry = self._pending_retry and data == self._given_up_request
+        return len(abandoned) > 1 or not retry
 
     def _h_stray_packet(self, data: bytes) -> None:
         # An intact packet outside an exchange. A copy of the last answer we ACKed is the
