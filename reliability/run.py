@@ -174,6 +174,7 @@ def cmd_properties(args: argparse.Namespace) -> int:
         "-p",
         "no:cacheprovider",
         "--hypothesis-show-statistics",
+        "--timeout=0",  # the suite's per-test limit is for 300 examples, not thousands
         "--hypothesis-seed",
         str(args.seed) if args.seed else str(int(time.time())),
     ]
