@@ -132,15 +132,24 @@ class Exchange:
         """Send the request (a state change at most once more after a NAK; an answer cut at
         what the command can carry)."""
         command = self.command
-        events = self.link.send_request(
-            self.request,
-            command.SHAPE,
-            now,
-            once=command.CHANGES_STATE,
-            max_packets=command.MAX_PACKETS,
-            distinct=command.DISTINCT_PACKETS,
-            retry=self.retry,
-        )
+        if self.retry or command.DISTINCT_PACKETS:
+            events = self.link.send_request(
+                self.request,
+                command.SHAPE,
+                now,
+                once=command.CHANGES_STATE,
+                max_packets=command.MAX_PACKETS,
+                distinct=command.DISTINCT_PACKETS,
+                retry=self.retry,
+            )
+        else:  # the usual request, without the two rare flags (every request passes here)
+            events = self.link.send_request(
+                self.request,
+                command.SHAPE,
+                now,
+                once=command.CHANGES_STATE,
+                max_packets=command.MAX_PACKETS,
+            )
         if events:
             self._handle(events, now)
 

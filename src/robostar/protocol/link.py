@@ -744,8 +744,6 @@ class HostLink(Link):
         self._abandoned: dict[bytes, None] = {}  # codes of requests given up, oldest first
         self._fence: Fence | None = None  # WAIT_FENCE: the fence sent
         self._fenced: tuple[bytes, Shape, bool, int | None, bool] | None = None  # held behind it
-        self._sent_code = b""  # G1 G2 of the request sent last
-        self._sent_request = b""  # and its data
         self._given_up_request = b""  # the request given up last
         self._deferred: tuple[bytes, Shape, bool, int | None, bool] | None = None
         self._request_at = 0.0
@@ -754,11 +752,11 @@ class HostLink(Link):
         self._max_packets = 1
         self._packets = 0
         self._distinct = False  # no two packets of the answer are equal (send_request)
-        self._copies = 0  # copies of this exchange's last packet taken for resends
-        self._progress_by: float | None = None  # MULTI: a new packet must come by then
+        self._copies = 0  # copies taken for resends of the packet ACKed last,
+        self._copies_of = -1  # which is this exchange's packet number _copies_of
+        self._progress_by: float | None = None  # WAIT_MORE: a new packet must come by then
         self._bytes = 0
         self._maybe_answer = b""  # a read's copy taken for a resend, delivered if nothing else
-        self._maybe_copies = 0  # copies of the previous answer in this exchange's WAIT_ANSWER
         self._last_reply = b""  # FB: the controller's last reply to one of our packets
         self._aborting = False
         self._quiet_at = 0.0  # RESYNC: when the line will have been quiet for the whole gap
@@ -883,24 +881,21 @@ class HostLink(Link):
         return self._take_events()
 
     # -- handlers --------------------------------------------------------------------------
-    def _h_send_request(self, data: bytes) -> None:
-        if self._abandoned and self._needs_fence(data):
-            # An exchange was given up since the last clean answer: its answer may still come.
-            # A fence read first; the request waits behind it (stops never do).
-            self._fenced = (
-                data,
-                self._pending_shape,
-                self._pending_once,
-                self._pending_max,
-                self._pending_distinct,
-            )
-            fence = self._fence = self._pick_fence()
-            self._pending_shape, self._pending_once = Shape.SINGLE, False
-            self._pending_max, self._pending_distinct = None, False
-            self._start(fence.request)
-            self.state = State.WAIT_FENCE
-            return
-        self._start(data)
+    def _send_fence(self, data: bytes) -> None:
+        """An exchange was given up since the last clean answer: its answer may still come.
+        A fence read goes first; the request ``data`` waits behind it (stops never do)."""
+        self._fenced = (
+            data,
+            self._pending_shape,
+            self._pending_once,
+            self._pending_max,
+            self._pending_distinct,
+        )
+        fence = self._fence = self._pick_fence()
+        self._pending_shape, self._pending_once = Shape.SINGLE, False
+        self._pending_max, self._pending_distinct = None, False
+        self._h_send_request(fence.request)  # no fence before it: one is open (_needs_fence)
+        self.state = State.WAIT_FENCE
 
     def _pick_fence(self) -> Fence:
         """The first fence whose own read was not given up (its answer could be late too); if
@@ -927,12 +922,12 @@ class HostLink(Link):
         fenced, self._fenced = self._fenced, None
         data, self._pending_shape, self._pending_once, self._pending_max = fenced[:4]
         self._pending_distinct = fenced[4]
-        self._start(data)
+        self._h_send_request(data)
 
-    def _start(self, data: bytes) -> None:
-        """Send the request ``data`` with the pending shape and limits: the exchange opens."""
-        self._sent_code = data[1:3]
-        self._sent_request = data
+    def _h_send_request(self, data: bytes) -> None:
+        if self._abandoned and self._needs_fence(data):
+            self._send_fence(data)
+            return
         shape = self.shape = self._pending_shape
         now = self._now
         self._corrupt = 0
@@ -940,11 +935,9 @@ class HostLink(Link):
         self._send_once = self._pending_once or shape is Shape.UPLOAD
         self._doubt = ""
         self._maybe_answer = b""
-        self._maybe_copies = 0
         self._packets = self._bytes = 0
         self._distinct = self._pending_distinct
-        self._copies = 0
-        self._progress_by = None
+        self._copies_of = -1  # no copy counted yet in this exchange
         if shape is Shape.MULTI:
             max_packets = self._pending_max or MAX_MULTI_PACKETS
         else:
@@ -1140,10 +1133,11 @@ class HostLink(Link):
 
     def _given_up(self) -> None:
         """This end gave up the request sent last (with its RST): its answer may still come."""
-        code = self._sent_code
+        request = self._request_data or b""  # the request sent last
+        code = request[1:3]
         self._abandoned.pop(code, None)
         self._abandoned[code] = None
-        self._given_up_request = self._sent_request
+        self._given_up_request = request
 
     def _needs_fence(self, data: bytes) -> bool:
         """Must ``data`` wait behind a fence? When an exchange was given up since the last
@@ -1151,8 +1145,8 @@ class HostLink(Link):
         very request given up, alone (a late answer of the first try answers the same call;
         the given-up mark stays, so the next other request or call is fenced)."""
         abandoned = self._abandoned
-        if not abandoned or not self.fences or data[1:3] in EARLY_CODES:
-            return False
+        if self._fence is not None or not self.fences or data[1:3] in EARLY_CODES:
+            return False  # (a fence being sent is not fenced itself)
         retry = self._pending_retry and data == self._given_up_request
         return len(abandoned) > 1 or not retry
 
@@ -1228,21 +1222,23 @@ class HostLink(Link):
         if data == self._last_received and (
             (self._distinct and self._packets) or self._is_resend(data, self._now)
         ):
-            if self._packets:
+            if self._copies_of != self._packets:  # the first copy of this packet
+                self._copies_of = self._packets
+                self._copies = 0
+            self._copies += 1
+            if self._packets and self._copies > MAX_RESENDS:
                 # A copy of a packet of this exchange: the controller resends an unacknowledged
                 # packet at most MAX_RESENDS times; a copy beyond that is no resend.
-                self._copies += 1
-                if self._copies > MAX_RESENDS:
-                    self._rule_broken(
-                        LinkRuleError(
-                            "host",
-                            self.state.value,
-                            "packet",
-                            f"copy {self._copies + 1} of one packet: a controller resends at "
-                            f"most {MAX_RESENDS} times",
-                        )
+                self._rule_broken(
+                    LinkRuleError(
+                        "host",
+                        self.state.value,
+                        "packet",
+                        f"copy {self._copies + 1} of one packet: a controller resends at "
+                        f"most {MAX_RESENDS} times",
                     )
-                    return
+                )
+                return
             self._ack(data)
             self._emit(Ignored("resent answer (ACKed again)", self.state))
             if self.state is State.WAIT_ANSWER and not self._send_once:
@@ -1250,9 +1246,8 @@ class HostLink(Link):
                 # other answer comes (a state change would rather be unknown than wrong).
                 # Not when it came again (a slow controller answers once; a resending one
                 # up to MAX_RESENDS times), nor an END to an exchange that has none.
-                self._maybe_copies += 1
                 fits = self.shape is Shape.MULTI or _flag_of(data) != FLAG_END
-                self._maybe_answer = data if self._maybe_copies == 1 and fits else b""
+                self._maybe_answer = data if self._copies == 1 and fits else b""
             # Never shorten the wait: in WAIT_SECOND it runs to the announced work time.
             self._extend(self.timeout + self.resend_grace)
             return
@@ -1271,7 +1266,6 @@ class HostLink(Link):
             return
         self._packets += 1
         self._bytes += len(data)
-        self._copies = 0
         if self._packets > self._max_packets or self._bytes > self._max_packets * MAX_PACKET:
             what = f"{self._packets} packets, {self._bytes} bytes"
             limit = f"{self._max_packets} packets of at most {MAX_PACKET} bytes"
