@@ -67,7 +67,8 @@ def test_a_new_call_of_the_same_read_is_fenced_a_retry_is_not() -> None:
     host.send_request(GR10, Shape.SINGLE, 3.0)
     assert host.data_to_send() == encode_packet(AA)
     host = _given_up()
-    host.send_request(GR10, Shape.SINGLE, 3.0, retry=True)
+    host.retry_next()
+    host.send_request(GR10, Shape.SINGLE, 3.0)
     assert host.data_to_send() == encode_packet(GR10)
     assert host.state is State.WAIT_ANSWER
 

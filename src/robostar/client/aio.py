@@ -138,20 +138,20 @@ class AsyncClient(AsyncOperations, ClientBase):
                 except StopIteration as done:
                     return cast(R, done.value)
                 again = request is command  # a retry: the rules ask for the same call again
-                exchange = await self._exchange(request, progress if again else None, retry=again)
+                if again:
+                    self._link.retry_next()
+                exchange = await self._exchange(request, progress if again else None)
                 outcome = exchange.outcome()
         finally:
             lock.release()
 
     # -- the line -------------------------------------------------------------------------
-    async def _exchange(
-        self, command: Command[Any], progress: Progress | None, *, retry: bool = False
-    ) -> Exchange:
+    async def _exchange(self, command: Command[Any], progress: Progress | None) -> Exchange:
         """One exchange, as one loop (the asyncio twin of Client._exchange)."""
         transport = self.transport
         traced = self._trace is not None
         link = self._link
-        exchange = Exchange(link, command, progress, retry=retry)
+        exchange = Exchange(link, command, progress)
         written = False
         clock = time.monotonic
         # A clean single answer is ACKed where it lands, a loop turn before this task resumes

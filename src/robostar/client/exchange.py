@@ -92,7 +92,6 @@ class Exchange:
         "link",
         "progress",
         "request",
-        "retry",
         "upload",
     )
 
@@ -101,14 +100,10 @@ class Exchange:
         link: HostLink,
         command: Command[Any],
         progress: Progress | None = None,
-        *,
-        retry: bool = False,
     ) -> None:
         self.link = link
         self.command = command
         self.progress = progress
-        self.retry = retry
-        """The rules ask for the same command again (a read whose answer was lost)."""
         # Encoding checks every field; a bad one raises FieldError before anything is written.
         self.request = command.encode()
         shape = command.SHAPE
@@ -132,17 +127,16 @@ class Exchange:
         """Send the request (a state change at most once more after a NAK; an answer cut at
         what the command can carry)."""
         command = self.command
-        if self.retry or command.DISTINCT_PACKETS:
+        if command.DISTINCT_PACKETS:
             events = self.link.send_request(
                 self.request,
                 command.SHAPE,
                 now,
                 once=command.CHANGES_STATE,
                 max_packets=command.MAX_PACKETS,
-                distinct=command.DISTINCT_PACKETS,
-                retry=self.retry,
+                distinct=True,
             )
-        else:  # the usual request, without the two rare flags (every request passes here)
+        else:  # the usual request, without the rare flag (every request passes here)
             events = self.link.send_request(
                 self.request,
                 command.SHAPE,

@@ -146,21 +146,21 @@ class Client(SyncOperations, ClientBase):
                 except StopIteration as done:
                     return cast(R, done.value)
                 again = request is command  # a retry: the rules ask for the same call again
-                exchange = self._exchange(request, progress if again else None, retry=again)
+                if again:
+                    self._link.retry_next()
+                exchange = self._exchange(request, progress if again else None)
                 outcome = exchange.outcome()
         finally:
             lock.release()
 
     # -- the line -------------------------------------------------------------------------
-    def _exchange(
-        self, command: Command[Any], progress: Progress | None, *, retry: bool = False
-    ) -> Exchange:
+    def _exchange(self, command: Command[Any], progress: Progress | None) -> Exchange:
         """One exchange, as one loop: stray input first, the request, then answers until the
         link says the exchange is over (see core.ClientBase for the rules it shares)."""
         transport = self.transport
         traced = self._trace is not None
         link = self._link
-        exchange = Exchange(link, command, progress, retry=retry)
+        exchange = Exchange(link, command, progress)
         written = False
         clock = time.monotonic
         try:

@@ -745,6 +745,7 @@ class HostLink(Link):
         self._fence: Fence | None = None  # WAIT_FENCE: the fence sent
         self._fenced: tuple[bytes, Shape, bool, int | None, bool] | None = None  # held behind it
         self._given_up_request = b""  # the request given up last
+        self._retry_next = False  # retry_next() was called for the request to come
         self._deferred: tuple[bytes, Shape, bool, int | None, bool] | None = None
         self._request_at = 0.0
         self._resync_until = 0.0  # a resync gap, however often restarted, ends by then
@@ -777,7 +778,6 @@ class HostLink(Link):
         once: bool = False,
         max_packets: int | None = None,
         distinct: bool = False,
-        retry: bool = False,
     ) -> list[LinkEvent]:
         """Start an exchange with a request packet's data (``FF G1 G2 params``).
 
@@ -786,15 +786,12 @@ class HostLink(Link):
         command can carry; past it (or its bytes) the answer is cut with RST (TOO_LONG).
         ``distinct``: no two packets of the answer are equal, so a copy of the packet just
         ACKed is the controller resending it however soon it comes (see :data:`MAX_RESENDS`).
-        ``retry``: the application asks the same question again (the same call): the request
-        given up last, sent again, needs no fence (a late answer to it answers this call).
         """
         self._now = now
         self._pending_shape = shape
         self._pending_once = once
         self._pending_max = max_packets
         self._pending_distinct = distinct
-        self._pending_retry = retry
         self._fire(Input.SEND_REQUEST, data)
         if self._backlog:
             self._take_backlog()
@@ -863,6 +860,12 @@ class HostLink(Link):
         self._deadline = None
         self.state = State.IDLE
         return packet
+
+    def retry_next(self) -> None:
+        """The next request is the application asking the same call again (a read whose
+        answer was lost): if it is the request given up last, it needs no fence, since a late
+        answer to it answers this call (see ``_needs_fence``)."""
+        self._retry_next = True
 
     def send_upload_line(self, body: bytes, now: float) -> list[LinkEvent]:
         """FB: send one content packet (``0x30`` + body) after :class:`UploadReady`."""
@@ -1138,6 +1141,7 @@ class HostLink(Link):
         self._abandoned.pop(code, None)
         self._abandoned[code] = None
         self._given_up_request = request
+        self._retry_next = False  # a retry_next() before this was for the request given up
 
     def _needs_fence(self, data: bytes) -> bool:
         """Must ``data`` wait behind a fence? When an exchange was given up since the last
@@ -1147,8 +1151,8 @@ class HostLink(Link):
         abandoned = self._abandoned
         if self._fence is not None or not self.fences or data[1:3] in EARLY_CODES:
             return False  # (a fence being sent is not fenced itself)
-        retry = self._pending_retry and data == self._given_up_request
-        return len(abandoned) > 1 or not retry
+        retry, self._retry_next = self._retry_next, False
+        return len(abandoned) > 1 or not (retry and data == self._given_up_request)
 
     def _h_stray_packet(self, data: bytes) -> None:
         # An intact packet outside an exchange. A copy of the last answer we ACKed is the
