@@ -35,15 +35,16 @@ from robostar.commands.files import DownloadFile, UploadFile
 from robostar.commands.job import Servo
 from robostar.commands.motion import MoveBy
 from robostar.commands.status import ReadAlarms, ReadStatus
-from robostar.commands.variables import WriteGlobalPoint
+from robostar.commands.variables import ReadGlobalInt, WriteGlobalPoint
 from robostar.errors import (
+    LinkRuleError,
     OutcomeUnknownError,
     PortError,
     RobostarError,
     UploadIncompleteError,
 )
 from robostar.protocol.fields import FileName
-from robostar.protocol.frame import ETX, STX
+from robostar.protocol.frame import ACK, ETX, STX, FrameDecoder, Packet, encode_packet
 from robostar.sim import SimConfig, VirtualController
 from robostar.sim.faults import Direction, FaultInjector, FaultKind, FaultSpec
 from robostar.sim.filesystem import StoredJob
@@ -54,11 +55,13 @@ __all__ = [
     "CASES",
     "CI_STRIDE",
     "FAULTS",
+    "SCENARIOS",
     "Baseline",
     "Case",
     "CellResult",
     "Fault",
     "MatrixConfig",
+    "Scenario",
     "Trial",
     "baseline",
     "row",
@@ -66,6 +69,7 @@ __all__ = [
     "run_cell",
     "run_matrix",
     "run_row",
+    "run_scenario",
     "summarise",
 ]
 
@@ -533,6 +537,197 @@ def _result(
     )
 
 
+# -- scenario rows ---------------------------------------------------------------------------
+class ScriptedLine(FaultLine):
+    """The matrix's line with two misbehaviours of its own, each armed by a scenario:
+
+    - ``resend_forever``: the host's ACKs never reach the controller, and whenever the
+      controller has been silent for that long the line sends its last answer packet again
+      (a controller that resends without end, past the manual's three resends);
+    - ``hold``: the controller's next bytes are held this long, and what follows them waits
+      behind (a device server that held one answer past the client's timeout and quiet
+      gap)."""
+
+    def __init__(self, injector: FaultInjector, clock: VirtualClock) -> None:
+        super().__init__(injector, clock)
+        self.resend_forever: float | None = None
+        self.hold = 0.0
+        self.replayed = 0
+        self._replay_at: float | None = None
+        self._later: list[tuple[float, bytes]] = []
+        self._answers = FrameDecoder()
+        self._last_answer = b""
+
+    def write(self, data: bytes) -> None:
+        if self.resend_forever is not None and ACK in data:
+            data = data.replace(bytes((ACK,)), b"")  # no packet byte is ever an ACK
+            if not data:
+                self.trace.append(("tx swallowed", bytes((ACK,))))
+                return
+        super().write(data)
+
+    def read(self, timeout: float) -> bytes:
+        if not self.is_open:
+            raise self._closed_error()
+        clock = self.clock
+        end = clock.now + max(timeout, 0.0)
+        while True:
+            data: bytes = self._peer(self.injector.output, clock.now)
+            if data and (self.hold or self._later):
+                # held, or behind what is held: a line delivers in order
+                last = self._later[-1][0] if self._later else 0.0
+                self._later.append((max(clock.now + self.hold, last), data))
+                self.hold = 0.0
+                data = b""
+            due = [chunk for at, chunk in self._later if at <= clock.now]
+            if due:
+                self._later = [(at, chunk) for at, chunk in self._later if at > clock.now]
+                data = b"".join(due)
+            period = self.resend_forever
+            if period is not None and self._last_answer:
+                if data:
+                    self._replay_at = clock.now + period
+                elif self._replay_at is not None and clock.now >= self._replay_at:
+                    data = self._last_answer
+                    self.replayed += 1
+                    self._replay_at = clock.now + period
+            if data:
+                for event in self._answers.feed(data):
+                    if isinstance(event, Packet):
+                        self._last_answer = encode_packet(event.data)
+                self.trace.append(("rx", data))
+                self.last_activity = clock.now
+                self.received += len(data)
+                return data
+            if clock.now >= end:
+                return b""
+            times = [t for t in (self.injector.next_deadline(), end) if t is not None]
+            times += [at for at, _ in self._later]
+            if self.resend_forever is not None and self._replay_at is not None:
+                times.append(self._replay_at)
+            clock.sleep(max(min(times), clock.now + 1e-4) - clock.now)
+
+
+G10, G20 = 1010, 2020
+
+
+def _globals_set(sim: VirtualController) -> None:
+    _prepared(sim)
+    sim.model.ints[10], sim.model.ints[20] = G10, G20
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """A matrix row that is not a fault at a byte position: a misbehaviour of the line over a
+    whole call (``ScriptedLine``), judged by ``run_scenario``."""
+
+    name: str
+    cases: tuple[Case, ...]
+
+
+RESEND_FOREVER = Scenario(
+    "resend beyond the limit",
+    tuple(c for c in CASES if c.name in ("AA", "AB", "FA", "DB")),
+)
+LATENCY_AFTER_ABORT = Scenario(
+    "latency after abort",
+    (Case("GR", ReadGlobalInt(10), _globals_set),),
+)
+SCENARIOS = (RESEND_FOREVER, LATENCY_AFTER_ABORT)
+"""The scenario rows: a controller resending past the manual's limit (each case's call ends,
+with its answer or a typed error — LinkRuleError for a multi-packet answer — and the line is
+clean for the next call), and an answer held past the client's timeout and quiet gap (the
+call given up; the next read, of another global, must get its own value, never the given-up
+read's)."""
+
+
+def run_scenario(scenario: Scenario, case: Case, config: MatrixConfig) -> CellResult:
+    """Run one scenario row's case and judge it (as a cell: no hang, a typed error or the
+    unfaulted result, and the next exchange right)."""
+    trial = Trial(case, config)
+    line = ScriptedLine(trial.injector, trial.clock)
+    trial.line = line
+    trial.client = Client(
+        line,
+        timeout=config.timeout,
+        # the given-up read is not asked again: its late answer meets the next read
+        retries=0 if scenario is LATENCY_AFTER_ABORT else config.retries,
+        reconnect=True,
+        controller_timeout=config.ack_timeout,
+    )
+    fault = Fault(scenario.name, FaultKind.REPEAT)
+    direction = Direction.TO_HOST
+    base = baseline(case, config)
+    with virtual_time(trial.clock):
+        if scenario is RESEND_FOREVER:
+            line.resend_forever = config.ack_timeout
+        else:
+            # past the timeout and the quiet gap after the RST (one timeout each): it comes
+            # while the next read waits for its answer
+            line.hold = 2.2 * config.timeout
+        start = trial.clock.now
+        trial.clock.arm(300.0)
+        error: RobostarError | None = None
+        result: Any = None
+        try:
+            result = trial.call(case.command)
+        except RobostarError as exc:
+            error = exc
+        except Hang as exc:
+            return _result(case, fault, direction, 0, "VIOLATION:hang", 0, 0, str(exc), trial)
+        seconds = trial.clock.now - start
+        line.resend_forever = None
+        detail = "" if error is None else str(error)
+        if error is None:
+            outcome = "ok"
+            if result != base.result:
+                outcome, detail = "VIOLATION:wrong result", f"{result!r} != {base.result!r}"
+        else:
+            outcome = _label_error(case, error, trial.sim.executions[case.command.CODE])
+        multi = case.command.SHAPE is Shape.MULTI
+        if scenario is RESEND_FOREVER and multi and not isinstance(error, LinkRuleError):
+            outcome = "VIOLATION:copies beyond the limit taken"
+        if scenario is LATENCY_AFTER_ABORT:
+            if error is None:
+                outcome = "VIOLATION:not given up"
+            trial.clock.arm(60.0)
+            try:
+                value = trial.call(ReadGlobalInt(20))
+            except (RobostarError, Hang) as exc:
+                return _result(
+                    case,
+                    fault,
+                    direction,
+                    0,
+                    "VIOLATION:next read failed",
+                    seconds,
+                    0,
+                    repr(exc),
+                    trial,
+                )
+            if value != G20:
+                return _result(
+                    case,
+                    fault,
+                    direction,
+                    0,
+                    "VIOLATION:old answer taken",
+                    seconds,
+                    0,
+                    f"g20 read {value}",
+                    trial,
+                )
+        if not outcome.startswith("VIOLATION"):
+            outcome, detail = _after_checks(trial, case, base, error, outcome, detail)
+    return _result(case, fault, direction, 0, outcome, seconds, 0.0, detail, trial)
+
+
+def run_scenarios(scenarios: Sequence[Scenario] = SCENARIOS) -> list[CellResult]:
+    """Every scenario row, as cells (one per case)."""
+    config = MatrixConfig()
+    return [run_scenario(s, case, config) for s in scenarios for case in s.cases]
+
+
 # -- the whole matrix ------------------------------------------------------------------------
 def positions(fault: Fault, direction: Direction, base: Baseline) -> Sequence[int]:
     """Every byte position of the exchange in that direction; for a fault on whole packets (a
@@ -635,4 +830,6 @@ def run_matrix(
         results += run_row(case, fault, direction, config, stride)
         if progress is not None:
             progress(len(results))
+    for scenario in SCENARIOS:
+        results += [run_scenario(scenario, case, config) for case in scenario.cases]
     return results, time.perf_counter() - start

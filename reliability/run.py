@@ -5,6 +5,7 @@
     python reliability/run.py matrix                           # every cell of the fault matrix
     python reliability/run.py soak --exchanges 1000000         # loopback TCP, own sim process
     python reliability/run.py table                            # the matrix as markdown
+    python reliability/run.py properties --examples 10000      # the link's property tests
 
 Results go to ``reliability/results/<name>.json`` (``--out`` to change). The exit status is 1
 when a run found a violation or an error, so a CI job can call it. docs/reliability.md shows the
@@ -15,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import platform
 import re
 import subprocess
@@ -149,6 +151,62 @@ def cmd_soak(args: argparse.Namespace) -> int:
     return 1 if data["errors"] or report.wrong else 0
 
 
+# -- properties --------------------------------------------------------------------------------
+_PROPERTY_TESTS = "tests/protocol/test_link_properties.py"
+_PASSING = re.compile(r"^(tests/\S+::\S+):$|(\d+) passing, (\d+) failing", re.MULTILINE)
+
+
+def cmd_properties(args: argparse.Namespace) -> int:
+    """The link's property tests (tests/protocol/test_link_properties.py) with ``--examples``
+    examples each, randomized (not CI's derandomized profile): a fresh search every run."""
+    env = {
+        **os.environ,
+        "ROBOSTAR_PROPERTY_EXAMPLES": str(args.examples),
+        "HYPOTHESIS_PROFILE": "dev",
+    }
+    env.pop("CI", None)
+    argv = [
+        sys.executable,
+        "-m",
+        "pytest",
+        _PROPERTY_TESTS,
+        "-q",
+        "-p",
+        "no:cacheprovider",
+        "--hypothesis-show-statistics",
+        "--timeout=0",  # the suite's per-test limit is for 300 examples, not thousands
+        "--hypothesis-seed",
+        str(args.seed) if args.seed else str(int(time.time())),
+    ]
+    start = time.perf_counter()
+    proc = subprocess.run(argv, capture_output=True, text=True, cwd=ROOT, env=env)
+    seconds = time.perf_counter() - start
+    tests: dict[str, dict[str, int]] = {}
+    name = ""
+    for match in _PASSING.finditer(proc.stdout):
+        if match.group(1):
+            name = match.group(1).split("::")[-1]
+        elif name:
+            counts = tests.setdefault(name, {"passing": 0, "failing": 0})
+            counts["passing"] += int(match.group(2))
+            counts["failing"] += int(match.group(3))
+    failed = proc.returncode != 0
+    data: dict[str, Any] = {
+        "tests": tests,
+        "examples_per_test": args.examples,
+        "examples": sum(c["passing"] + c["failing"] for c in tests.values()),
+        "failures": sum(c["failing"] for c in tests.values()) + (1 if failed else 0),
+        "seed": argv[-1],
+        "seconds": round(seconds, 1),
+        "exit_status": proc.returncode,
+    }
+    if failed:
+        data["log_tail"] = proc.stdout[-4000:]
+    _write(args.out or RESULTS / "properties.json", "properties", data)
+    _say(f"properties: {data['examples']} examples, {data['failures']} failures")
+    return 1 if failed else 0
+
+
 # -- table -----------------------------------------------------------------------------------
 def matrix_table(data: dict[str, Any]) -> str:
     """The matrix JSON as a markdown table: one row per exchange and direction, one column per
@@ -218,6 +276,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     table = sub.add_parser("table", help="print the matrix results as a markdown table")
     table.add_argument("--source", type=Path, help="a matrix JSON (default: the last run's)")
     table.set_defaults(run=cmd_table)
+
+    props = sub.add_parser("properties", help="the link's property tests, many examples")
+    props.add_argument("--examples", type=int, default=10_000, help="examples per test")
+    props.add_argument("--seed", type=int, default=0, help="hypothesis seed (0: the time)")
+    props.add_argument("--out", type=Path)
+    props.set_defaults(run=cmd_properties)
 
     args = parser.parse_args(argv)
     code: int = args.run(args)

@@ -18,6 +18,8 @@ class DelayRelay:
     def __init__(self, target: tuple[str, int], delay: float) -> None:
         self.target = target
         self.delay = delay
+        self.answer_delay = 0.0
+        """Held this much longer on the way back (a controller slow to answer)."""
         self.from_client: list[tuple[float, bytes]] = []
         self.listener = socket.create_server(("127.0.0.1", 0))
         host, port = self.listener.getsockname()[:2]
@@ -35,9 +37,11 @@ class DelayRelay:
         for sock in (client, upstream):
             sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
         self._pipe(client, upstream, record=True)
-        self._pipe(upstream, client, record=False)
+        self._pipe(upstream, client, record=False, back=True)
 
-    def _pipe(self, src: socket.socket, dst: socket.socket, *, record: bool) -> None:
+    def _pipe(
+        self, src: socket.socket, dst: socket.socket, *, record: bool, back: bool = False
+    ) -> None:
         queue: list[tuple[float, bytes]] = []
         ready = threading.Condition()
 
@@ -51,7 +55,7 @@ class DelayRelay:
                 if record and data:
                     self.from_client.append((now, data))
                 with ready:
-                    queue.append((now + self.delay, data))
+                    queue.append((now + self.delay + (self.answer_delay if back else 0.0), data))
                     ready.notify()
                 if not data:
                     return

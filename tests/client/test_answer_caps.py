@@ -10,6 +10,7 @@ records (102); KE's index is two digits, and each of its 99 groups may take up t
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import replace
 from typing import Any
 
 import pytest
@@ -45,11 +46,14 @@ def _parameters(robot: Client) -> Any:
 
 
 def _answer(command: Command[Any], count: int) -> list[bytes]:
-    """A legitimate answer of ``command`` holding ``count`` packets, END included."""
+    """A legitimate answer of ``command`` holding ``count`` packets, END included. FD's and
+    FH's packets all differ (a copy of one is a resend: tests/client/test_resend_limit.py)."""
     if isinstance(command, ListFiles):
-        return command.encode_answer((FILE,) * (count - 1))
+        files = [replace(FILE, name=f"R{n:04d}.JOB") for n in range(count - 1)]
+        return command.encode_answer(tuple(files))
     if isinstance(command, ReadAlarmHistory):
-        return command.encode_answer((ALARM,) * (count - 2))
+        alarms = [replace(ALARM, page=n // 10, index=n % 10) for n in range(count - 2)]
+        return command.encode_answer(tuple(alarms))
     assert isinstance(command, ReadParameters)
     return command.encode_answer((PARAMETER,) * (count - 1))
 
@@ -73,7 +77,7 @@ def test_an_endless_answer_is_cut_at_what_the_command_can_carry(
 ) -> None:
     # A hostile controller: a valid first packet, then another valid packet after every ACK,
     # never END. Before the caps, it ran to the link's general 10,002 packets.
-    packets = [encode_packet(p) for p in _answer(command, 3)[:-1]]
+    packets = [encode_packet(p) for p in _answer(command, cap + 2)[:-1]]
     peer = Scripted(lambda data, n: [(0.0, packets[0])] if n == 1 else [(0.0, STATUS)])
     peer.on_ack = lambda n: [(0.0, packets[min(n, len(packets) - 1)])]
     with client(peer) as robot:

@@ -408,6 +408,9 @@ def test_a_single_changed_data_or_lrc_byte_is_a_bad_lrc(data: bytes, draw: st.Da
     # A new STX or ETX changes the framing (other tests); 0x00 for a zero LRC is accepted.
     assume(packet[index] not in (STX, ETX))
     assume(not (index == len(packet) - 1 and lrc(data) == 0 and packet[index] == 0))
+    # A zero LRC is sent as 0x03: data whose XOR was 0 and is 3 after a change of 3 in one
+    # byte ends in its own good LRC (the zero-LRC rule's blind spot, not the decoder's).
+    assume(not (index < etx_at and lrc(bytes(packet[1:etx_at])) == packet[-1]))
     events = FrameDecoder().feed(bytes(packet) + encode_packet(b"0"))
     assert events == [CorruptPacket(CorruptReason.BAD_LRC, bytes(packet)), Packet(b"0")]
 

@@ -25,6 +25,7 @@ from robostar.protocol.link import (
     ExchangeComplete,
     ExchangeFailed,
     FailReason,
+    Fence,
     HostLink,
     Ignored,
     Input,
@@ -178,6 +179,21 @@ def _host_resync() -> Link:
     return host
 
 
+FENCE = Fence(AA, lambda data: data == AA_ANSWER)
+"""A fence for the tests: AA, whose answer is AA_ANSWER."""
+
+
+def _host_fencing() -> Link:
+    """A host whose read timed out: after the quiet gap its next request waits behind a fence
+    (sent)."""
+    host = HostLink(fences=(FENCE,))
+    host.send_request(b"\xffXX", Shape.SINGLE, T0 - 5.0)
+    host.handle_timeout(T0 - 3.0)
+    host.send_request(b"\xffYY", Shape.SINGLE, T0)
+    host.data_to_send()
+    return host
+
+
 SETUPS: dict[tuple[Role, State], Callable[[], Link]] = {
     (Role.HOST, State.IDLE): HostLink,
     (Role.HOST, State.WAIT_ANSWER): lambda: _host(Shape.SINGLE),
@@ -187,6 +203,7 @@ SETUPS: dict[tuple[Role, State], Callable[[], Link]] = {
     (Role.HOST, State.UPLOAD_READY): lambda: _host(Shape.UPLOAD, FB_OK),
     (Role.HOST, State.UPLOAD_WAIT_ACK): lambda: _host(Shape.UPLOAD, FB_OK, end=True),
     (Role.HOST, State.RESYNC): _host_resync,
+    (Role.HOST, State.WAIT_FENCE): _host_fencing,
     (Role.CONTROLLER, State.LISTEN): ControllerLink,
     (Role.CONTROLLER, State.HANDLING): lambda: _ctl(_ctl_request),
     (Role.CONTROLLER, State.WAIT_ACK): lambda: _ctl(
@@ -213,6 +230,7 @@ PACKET_FOR = {
     State.UPLOAD_READY: END,  # stale: held, then a broken rule at the next call (see HELD)
     State.UPLOAD_WAIT_ACK: b"\xff2",
     State.RESYNC: AA_ANSWER,
+    State.WAIT_FENCE: AA_ANSWER,
     State.LISTEN: AA,
     State.HANDLING: AA,
     State.WAIT_ACK: AB,
@@ -1967,6 +1985,7 @@ def _host_rst_entries() -> list[tuple[State, Input]]:
 
 LAST_SENT = {
     State.WAIT_ANSWER: frame(b"\xffXX"),
+    State.WAIT_FENCE: frame(AA),
     State.UPLOAD_WAIT_REPLY: frame(FB),
     State.UPLOAD_WAIT_ACK: frame(END),
 }
@@ -1997,8 +2016,10 @@ def test_the_host_rst_entries_are_the_ones_expected() -> None:
         State.WAIT_SECOND,
         State.UPLOAD_WAIT_REPLY,
         State.UPLOAD_WAIT_ACK,
+        State.WAIT_FENCE,
     }
-    sending = {State.WAIT_ANSWER}  # a read's request; an upload's NAKs end by timeout
+    # a read's request (a fence is one); an upload's NAKs end by timeout
+    sending = {State.WAIT_ANSWER, State.WAIT_FENCE}
     assert set(_host_rst_entries()) == (
         {(state, Input.TIMEOUT) for state in waiting}
         | {(state, Input.CORRUPT) for state in waiting}
@@ -2046,7 +2067,8 @@ def test_without_a_gap_every_rst_the_host_sends_returns_it_to_idle(
     assert link.idle and link.next_deadline() is None
     assert link.send_request(AA, Shape.SINGLE, now) == []
     assert link.data_to_send() == frame(AA)
-    assert link.state is State.WAIT_ANSWER
+    # a host with a fence sends it first (here AA itself), the request behind it
+    assert link.state is (State.WAIT_FENCE if link.fences else State.WAIT_ANSWER)
     assert link.next_deadline() == pytest.approx(now + 2.0)
 
 

@@ -14,15 +14,18 @@ from reliability.matrix import (
     CASES,
     CI_STRIDE,
     FAULTS,
+    SCENARIOS,
     Case,
     CellResult,
     Fault,
     MatrixConfig,
+    Scenario,
     Trial,
     baseline,
     rows,
     run_cell,
     run_row,
+    run_scenario,
 )
 from reliability.vclock import virtual_time
 
@@ -64,6 +67,18 @@ def test_matrix_row(row: tuple[Case, Fault, Direction], request: pytest.FixtureR
     assert not [r for r in results if r.outcome == "not reached"], "a fault did not fire"
     bad = [r for r in results if r.violation]
     assert not bad, _report(bad)
+
+
+@pytest.mark.parametrize(
+    ("scenario", "case"),
+    [(s, c) for s in SCENARIOS for c in s.cases],
+    ids=[f"{s.name.replace(' ', '-')}-{c.name}" for s in SCENARIOS for c in s.cases],
+)
+def test_matrix_scenario_row(scenario: Scenario, case: Case) -> None:
+    # A controller resending past the manual's limit; an answer held past the client's timeout
+    # and quiet gap, then the next read (reliability/matrix.py, SCENARIOS).
+    result = run_scenario(scenario, case, CONFIG)
+    assert not result.violation, _report([result])
 
 
 def test_every_shape_is_in_the_matrix() -> None:

@@ -190,6 +190,11 @@ def _usage(error: UsageError, kind: str, frames_sent: int, changes_sent: int) ->
         message = _sentence(f"The {error.field} is not valid: {error.message}")
     else:
         message = _sentence(str(error))
+    own_hint = getattr(error, "hint", None)
+    if isinstance(own_hint, str) and not changes_sent and not frames_sent:
+        # An error that says what to do about itself (a state file, a simulator option):
+        # not about a command's arguments, so neither "Nothing was sent" nor --help.
+        return Failure(EXIT_BAD_ARGUMENT, message, own_hint, kind)
     if changes_sent:
         sent = (
             f"{changes_sent} command(s) that change the controller had already been sent "

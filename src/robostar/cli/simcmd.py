@@ -150,7 +150,16 @@ def sim(
     else:
         config = SimConfig()
     if dialect is not None:
-        config = dataclasses.replace(config, dialect=dialect)  # an unknown name: UsageError
+        try:
+            config = dataclasses.replace(config, dialect=dialect)
+        except UsageError as exc:  # an unknown name: the names, and how to pick one
+            from robostar.sim.dialects import DIALECTS
+
+            exc.hint = (  # type: ignore[attr-defined]
+                f"Give one of the names above, e.g. `robostar sim --dialect "
+                f"{next(iter(DIALECTS))}` (`robostar sim --help` says what each one changes)."
+            )
+            raise
     address = None if listen.strip().lower() in ("", "none") else listen
     if replay_file is not None:
         from robostar.sim.replay import serve_replay

@@ -139,7 +139,10 @@ class AsyncClient(AsyncOperations, ClientBase):
                     request = plan.send(outcome)
                 except StopIteration as done:
                     return cast(R, done.value)
-                exchange = await self._exchange(request, progress if request is command else None)
+                again = request is command  # a retry: the rules ask for the same call again
+                if again:
+                    self._link.retry_next()
+                exchange = await self._exchange(request, progress if again else None)
                 outcome = exchange.outcome()
         finally:
             lock.release()

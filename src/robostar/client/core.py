@@ -8,7 +8,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from robostar.client import args
-from robostar.client.driver import Policy
+from robostar.client.driver import FENCES, Policy
 from robostar.client.surface import PlanHelpers
 from robostar.client.trace import TraceTarget, WireTrace
 from robostar.commands.base import Command
@@ -101,6 +101,7 @@ class ClientBase(PlanHelpers):
             resync_gap=timeout,
             abort_gap=max(0.05, packet_time),
             peer_resend_after=self.settings.controller_timeout,
+            fences=FENCES,
         )
 
     def _check_may_open(self) -> None:

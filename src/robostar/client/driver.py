@@ -22,6 +22,7 @@ from typing import Any, TypeVar, cast
 from robostar.client.exchange import Exchange, Outcome
 from robostar.commands.base import Command
 from robostar.commands.files import DownloadFile, UploadFile, parse_point_line
+from robostar.commands.status import ReadInfo, ReadStatus
 from robostar.commands.system import ReadLastError
 from robostar.errors import (
     AnswerTooLongError,
@@ -38,10 +39,11 @@ from robostar.errors import (
     error_for_flag,
 )
 from robostar.protocol.fields import FLAG_FAILED
-from robostar.protocol.link import MAX_NAKS, ExchangeFailed, FailReason, State
+from robostar.protocol.link import MAX_NAKS, ExchangeFailed, FailReason, Fence, State
 from robostar.types import CoordSystem, JobFile, PointFile
 
 __all__ = [
+    "FENCES",
     "NOT_DECODED",
     "CommandPlan",
     "Policy",
@@ -92,6 +94,36 @@ def _flag_error(code: str, flag: int) -> CommandPlan[ControllerError]:
     return error_for_flag(flag, code, reason)
 
 
+def _is_status_answer(data: bytes) -> bool:
+    """AA's answer: flag 0x30 and three status bytes (bit7 set, bit6 clear). No other answer
+    holds a byte of 0x80-0xBF: every other field is ASCII."""
+    return len(data) == 4 and data[0] == 0x30 and all(b & 0xC0 == 0x80 for b in data[1:])
+
+
+_INFO = ReadInfo()
+
+
+def _is_info_answer(data: bytes) -> bool:
+    """AD's answer: ``FF 0x30`` and the controller's fixed-width description."""
+    try:
+        _INFO.decode_answer([data])
+    except RobostarError:
+        return False
+    return True
+
+
+FENCES = (
+    Fence(ReadStatus().encode(), _is_status_answer),
+    Fence(_INFO.encode(), _is_info_answer),
+)
+"""The reads that fence off an abandoned exchange (HostLink): AA, whose answer no other can
+pass for; AD when an AA was given up (then a late AA answer could pass for the fence's)."""
+
+_NOT_SENT = (State.RESYNC, State.WAIT_FENCE)
+"""States a failure can end in before the request went out (its fence failed, or it waited
+for the quiet gap): nothing of the command reached the controller."""
+
+
 def _answer_was_corrupt(failure: ExchangeFailed) -> bool:
     """NAK exhaustion on our side: the answer arrived, damaged, so the controller acted."""
     return "corrupt" in failure.detail
@@ -102,13 +134,17 @@ def failure_error(command: Command[Any], failure: ExchangeFailed, policy: Policy
     code = command.CODE
     reason = failure.reason
     if reason is FailReason.TIMEOUT:
-        if command.CHANGES_STATE:
+        if command.CHANGES_STATE and failure.state not in _NOT_SENT:
             return OutcomeUnknownError(
                 code, failure.detail or f"no answer within {policy.timeout:g} s"
             )
         return ReplyTimeoutError(code, policy.timeout, failure.detail)
     if reason is FailReason.NAK_LIMIT:
-        if command.CHANGES_STATE and _answer_was_corrupt(failure):
+        if (
+            command.CHANGES_STATE
+            and _answer_was_corrupt(failure)
+            and failure.state not in _NOT_SENT
+        ):
             return OutcomeUnknownError(code, "its answer arrived corrupt too many times")
         return NakLimitError(code, MAX_NAKS + 1)
     if reason is FailReason.TOO_LONG or reason is FailReason.RULE:
@@ -118,14 +154,14 @@ def failure_error(command: Command[Any], failure: ExchangeFailed, policy: Policy
             else failure.error
             or LinkRuleError("host", failure.state.value, "packet", failure.detail)
         )
-        if command.CHANGES_STATE and failure.state is not State.RESYNC:
+        if command.CHANGES_STATE and failure.state not in _NOT_SENT:
             # The controller answered, so it had the request: whatever broke in its answer,
             # whether it carried the request out is not known (never a plain protocol error).
             unknown = OutcomeUnknownError(code, f"its answer broke the protocol ({error})")
             unknown.__cause__ = error
             return unknown
         return error
-    if command.CHANGES_STATE and failure.state is not State.RESYNC:
+    if command.CHANGES_STATE and failure.state not in _NOT_SENT:
         # The request was out: an RST (or a superseded exchange) says nothing of whether the
         # controller carried it out.
         return OutcomeUnknownError(code, failure.detail or reason.value)

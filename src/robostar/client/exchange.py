@@ -96,7 +96,10 @@ class Exchange:
     )
 
     def __init__(
-        self, link: HostLink, command: Command[Any], progress: Progress | None = None
+        self,
+        link: HostLink,
+        command: Command[Any],
+        progress: Progress | None = None,
     ) -> None:
         self.link = link
         self.command = command
@@ -124,13 +127,23 @@ class Exchange:
         """Send the request (a state change at most once more after a NAK; an answer cut at
         what the command can carry)."""
         command = self.command
-        events = self.link.send_request(
-            self.request,
-            command.SHAPE,
-            now,
-            once=command.CHANGES_STATE,
-            max_packets=command.MAX_PACKETS,
-        )
+        if command.DISTINCT_PACKETS:
+            events = self.link.send_request(
+                self.request,
+                command.SHAPE,
+                now,
+                once=command.CHANGES_STATE,
+                max_packets=command.MAX_PACKETS,
+                distinct=True,
+            )
+        else:  # the usual request, without the rare flag (every request passes here)
+            events = self.link.send_request(
+                self.request,
+                command.SHAPE,
+                now,
+                once=command.CHANGES_STATE,
+                max_packets=command.MAX_PACKETS,
+            )
         if events:
             self._handle(events, now)
 

@@ -147,7 +147,10 @@ class Client(SyncOperations, ClientBase):
                     request = plan.send(outcome)
                 except StopIteration as done:
                     return cast(R, done.value)
-                exchange = self._exchange(request, progress if request is command else None)
+                again = request is command  # a retry: the rules ask for the same call again
+                if again:
+                    self._link.retry_next()
+                exchange = self._exchange(request, progress if again else None)
                 outcome = exchange.outcome()
         finally:
             lock.release()

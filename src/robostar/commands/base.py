@@ -82,6 +82,9 @@ class Command(ABC, Generic[T]):
     MAX_PACKETS: ClassVar[int | None] = None
     """Multi-packet answers: the most packets (END included) the answer can hold; None: the
     link's general cap."""
+    DISTINCT_PACKETS: ClassVar[bool] = False
+    """Multi-packet answers: no two packets of an answer are equal (each names its file or
+    record), so a copy of the packet just ACKed is always the controller resending it."""
     _HEAD: ClassVar[bytes] = b""
     """``FF G1 G2``, made once per class (every request starts with it)."""
 

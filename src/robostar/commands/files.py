@@ -370,6 +370,7 @@ class ListFiles(Command[tuple[FileRecord, ...]]):
     SHAPE = Shape.MULTI
     ANSWER_DUMMY = True
     MAX_PACKETS = 2 * (JOB_NUMBER.hi + 1) + 1
+    DISTINCT_PACKETS = True  # one packet per file
     """``*`` lists a channel's JOB files and their PNT files: JOB numbers run 0-200 (FB), so at
     most 201 of each, and END (403 packets)."""
     channel: int
@@ -568,6 +569,7 @@ class ReadAlarmHistory(Command[tuple[AlarmRecord, ...]]):
     SHAPE = Shape.MULTI
     ANSWER_DUMMY = True
     MAX_PACKETS = 1 + ALARM_PAGES * ALARM_RECORDS_PER_PAGE + 1
+    DISTINCT_PACKETS = True  # each record carries its page and index
     """The header, ten pages of ten records, END (102 packets)."""
 
     def encode_params(self) -> bytes:

@@ -47,6 +47,7 @@ __all__ = [
     "ExchangeComplete",
     "ExchangeFailed",
     "FailReason",
+    "Fence",
     "HostLink",
     "Ignored",
     "Input",
@@ -97,6 +98,7 @@ class State(enum.Enum):
     WAIT_ANSWER = "WAIT_ANSWER"
     WAIT_MORE = "WAIT_MORE"
     WAIT_SECOND = "WAIT_SECOND"
+    WAIT_FENCE = "WAIT_FENCE"
     UPLOAD_WAIT_REPLY = "UPLOAD_WAIT_REPLY"
     UPLOAD_READY = "UPLOAD_READY"
     UPLOAD_WAIT_ACK = "UPLOAD_WAIT_ACK"
@@ -235,6 +237,23 @@ class Ignored:
     state: State
 
 
+@dataclass(frozen=True, slots=True)
+class Fence:
+    """A read the host sends before its next request after an abandoned exchange, whose
+    answer no other request's answer can be taken for (``accepts``). Whatever arrives before
+    that answer belongs to an exchange the host gave up, and is dropped; after it, the line
+    holds nothing old (the controller answers in order), and the request goes out."""
+
+    request: bytes
+    """The read's packet data, ``FF G1 G2 params``."""
+    accepts: Callable[[bytes], bool]
+    """True for an answer packet (flag 0x30) that only this read can have."""
+
+    @property
+    def code(self) -> bytes:
+        return self.request[1:3]
+
+
 LinkEvent = (
     AnswerReceived
     | UploadReady
@@ -281,6 +300,13 @@ TRANSITIONS: dict[tuple[Role, State, Input], str] = {
     (_H, State.WAIT_SECOND, Input.RST): "_reset_by_peer",
     (_H, State.WAIT_SECOND, Input.TIMEOUT): "_h_timeout",
     (_H, State.WAIT_SECOND, Input.ABORT): "_abort",
+    (_H, State.WAIT_FENCE, Input.PACKET): "_h_fence_answer",
+    (_H, State.WAIT_FENCE, Input.CORRUPT): "_nak_corrupt",
+    (_H, State.WAIT_FENCE, Input.NAK): "_resend",
+    (_H, State.WAIT_FENCE, Input.ACK): "_ignore",
+    (_H, State.WAIT_FENCE, Input.RST): "_reset_by_peer",
+    (_H, State.WAIT_FENCE, Input.TIMEOUT): "_h_timeout",
+    (_H, State.WAIT_FENCE, Input.ABORT): "_abort",
     (_H, State.UPLOAD_WAIT_REPLY, Input.PACKET): "_h_upload_reply",
     (_H, State.UPLOAD_WAIT_REPLY, Input.CORRUPT): "_nak_corrupt",
     (_H, State.UPLOAD_WAIT_REPLY, Input.NAK): "_resend",
@@ -702,6 +728,7 @@ class HostLink(Link):
         peer_resend_after: float | None = None,
         max_wait: float = MAX_ANNOUNCED_WAIT,
         abort_gap: float = 0.05,
+        fences: Sequence[Fence] = (),
     ):
         super().__init__(timeout=timeout, resend_gap=resend_gap)
         self.resync_gap = resync_gap
@@ -711,12 +738,24 @@ class HostLink(Link):
         self.max_wait = min(max_wait, MAX_ANNOUNCED_WAIT)
         self.abort_gap = abort_gap
         self.shape = Shape.SINGLE
-        self._deferred: tuple[bytes, Shape, bool, int | None] | None = None
+        self.fences = tuple(fences)
+        """The reads that fence off an abandoned exchange (:class:`Fence`), in the order of
+        preference; none: no fence (the quiet gap alone guards the next request)."""
+        self._abandoned: dict[bytes, None] = {}  # codes of requests given up, oldest first
+        self._fence: Fence | None = None  # WAIT_FENCE: the fence sent
+        self._fenced: tuple[bytes, Shape, bool, int | None, bool] | None = None  # held behind it
+        self._given_up_request = b""  # the request given up last
+        self._retry_next = False  # retry_next() was called for the request to come
+        self._deferred: tuple[bytes, Shape, bool, int | None, bool] | None = None
         self._request_at = 0.0
         self._resync_until = 0.0  # a resync gap, however often restarted, ends by then
         self._limit_at: float | None = None  # the exchange's overall limit
         self._max_packets = 1
         self._packets = 0
+        self._distinct = False  # no two packets of the answer are equal (send_request)
+        self._copies = 0  # copies taken for resends of the packet ACKed last,
+        self._copies_of = -1  # which is this exchange's packet number _copies_of
+        self._progress_by: float | None = None  # WAIT_MORE: a new packet must come by then
         self._bytes = 0
         self._maybe_answer = b""  # a read's copy taken for a resend, delivered if nothing else
         self._last_reply = b""  # FB: the controller's last reply to one of our packets
@@ -738,17 +777,21 @@ class HostLink(Link):
         *,
         once: bool = False,
         max_packets: int | None = None,
+        distinct: bool = False,
     ) -> list[LinkEvent]:
         """Start an exchange with a request packet's data (``FF G1 G2 params``).
 
         ``once``: the request changes state, so it is never resent on a NAK that may be a
         doubled one. ``max_packets``: the most answer packets (MULTI; END included) the
         command can carry; past it (or its bytes) the answer is cut with RST (TOO_LONG).
+        ``distinct``: no two packets of the answer are equal, so a copy of the packet just
+        ACKed is the controller resending it however soon it comes (see :data:`MAX_RESENDS`).
         """
         self._now = now
         self._pending_shape = shape
         self._pending_once = once
         self._pending_max = max_packets
+        self._pending_distinct = distinct
         self._fire(Input.SEND_REQUEST, data)
         if self._backlog:
             self._take_backlog()
@@ -818,6 +861,12 @@ class HostLink(Link):
         self.state = State.IDLE
         return packet
 
+    def retry_next(self) -> None:
+        """The next request is the application asking the same call again (a read whose
+        answer was lost): if it is the request given up last, it needs no fence, since a late
+        answer to it answers this call (see ``_needs_fence``)."""
+        self._retry_next = True
+
     def send_upload_line(self, body: bytes, now: float) -> list[LinkEvent]:
         """FB: send one content packet (``0x30`` + body) after :class:`UploadReady`."""
         self._now = now
@@ -835,7 +884,53 @@ class HostLink(Link):
         return self._take_events()
 
     # -- handlers --------------------------------------------------------------------------
+    def _send_fence(self, data: bytes) -> None:
+        """An exchange was given up since the last clean answer: its answer may still come.
+        A fence read goes first; the request ``data`` waits behind it (stops never do)."""
+        self._fenced = (
+            data,
+            self._pending_shape,
+            self._pending_once,
+            self._pending_max,
+            self._pending_distinct,
+        )
+        fence = self._fence = self._pick_fence()
+        self._pending_shape, self._pending_once = Shape.SINGLE, False
+        self._pending_max, self._pending_distinct = None, False
+        self._h_send_request(fence.request)  # no fence before it: one is open (_needs_fence)
+        self.state = State.WAIT_FENCE
+
+    def _pick_fence(self) -> Fence:
+        """The first fence whose own read was not given up (its answer could be late too); if
+        every one was, the one given up longest ago."""
+        abandoned = self._abandoned
+        for fence in self.fences:
+            if fence.code not in abandoned:
+                return fence
+        order = list(abandoned)
+        return min(self.fences, key=lambda fence: order.index(fence.code))
+
+    def _h_fence_answer(self, data: bytes) -> None:
+        self._good_packet()
+        fence = self._fence
+        assert fence is not None and self._fenced is not None
+        if _flag_of(data) != FLAG_OK or not fence.accepts(data):
+            # Sent before the fence's answer, so by an exchange we gave up: dropped, not ACKed
+            # (the controller dropped that exchange at our RST, or at the fence's request).
+            self._emit(Ignored("stale packet before the fence's answer (dropped)", self.state))
+            return
+        self._ack(data)
+        self._abandoned.clear()
+        self._fence = None
+        fenced, self._fenced = self._fenced, None
+        data, self._pending_shape, self._pending_once, self._pending_max = fenced[:4]
+        self._pending_distinct = fenced[4]
+        self._h_send_request(data)
+
     def _h_send_request(self, data: bytes) -> None:
+        if self._abandoned and self._needs_fence(data):
+            self._send_fence(data)
+            return
         shape = self.shape = self._pending_shape
         now = self._now
         self._corrupt = 0
@@ -844,6 +939,8 @@ class HostLink(Link):
         self._doubt = ""
         self._maybe_answer = b""
         self._packets = self._bytes = 0
+        self._distinct = self._pending_distinct
+        self._copies_of = -1  # no copy counted yet in this exchange
         if shape is Shape.MULTI:
             max_packets = self._pending_max or MAX_MULTI_PACKETS
         else:
@@ -890,10 +987,14 @@ class HostLink(Link):
         self._clamp()
 
     def _clamp(self) -> None:
-        """No timer of an exchange runs past the exchange's overall limit."""
+        """No timer of an exchange runs past the exchange's overall limit, nor a multi-packet
+        answer's wait past the moment its next new packet is due (``_progress_by``)."""
         limit = self._limit_at
         if limit is not None and self.busy and self._deadline is not None:
             self._deadline = min(self._deadline, limit)
+        progress = self._progress_by
+        if progress is not None and self.state is State.WAIT_MORE and self._deadline is not None:
+            self._deadline = min(self._deadline, progress)
 
     def _finish(self, event: LinkEvent) -> None:
         self._limit_at = None
@@ -912,6 +1013,11 @@ class HostLink(Link):
         error: LinkRuleError | None = None,
     ) -> None:
         self._limit_at = None
+        if send_rst and self.state not in _NOT_BUSY:
+            self._given_up()
+            if self.state is State.WAIT_FENCE:
+                self._fence = self._fenced = None
+                detail = f"{detail}; the fence before the request failed: it was not sent"
         super()._fail(reason, detail, send_rst=send_rst, error=error)
         if self._stop_early:
             self._after_early_stop()
@@ -973,7 +1079,13 @@ class HostLink(Link):
         if self._deferred is not None:
             raise LinkRuleError("host", self.state.value, Input.SEND_REQUEST.value, "one waits")
         encode_packet(data)  # a bad request is refused now, not when the gap ends
-        self._deferred = (data, self._pending_shape, self._pending_once, self._pending_max)
+        self._deferred = (
+            data,
+            self._pending_shape,
+            self._pending_once,
+            self._pending_max,
+            self._pending_distinct,
+        )
         # The gap may be over already (a blocking client's link is not woken between calls).
         self._send_when_due()
 
@@ -1012,9 +1124,35 @@ class HostLink(Link):
         self._stop_at = None
         deferred, self._deferred = self._deferred, None
         if deferred is not None:
-            data, self._pending_shape, self._pending_once, self._pending_max = deferred
+            (
+                data,
+                self._pending_shape,
+                self._pending_once,
+                self._pending_max,
+                self._pending_distinct,
+            ) = deferred
             self._h_send_request(data)
             self._stop_early = early
+
+    def _given_up(self) -> None:
+        """This end gave up the request sent last (with its RST): its answer may still come."""
+        request = self._request_data or b""  # the request sent last
+        code = request[1:3]
+        self._abandoned.pop(code, None)
+        self._abandoned[code] = None
+        self._given_up_request = request
+        self._retry_next = False  # a retry_next() before this was for the request given up
+
+    def _needs_fence(self, data: bytes) -> bool:
+        """Must ``data`` wait behind a fence? When an exchange was given up since the last
+        fence, unless ``data`` is a stop (never held back) or the application's retry of the
+        very request given up, alone (a late answer of the first try answers the same call;
+        the given-up mark stays, so the next other request or call is fenced)."""
+        abandoned = self._abandoned
+        if self._fence is not None or not self.fences or data[1:3] in EARLY_CODES:
+            return False  # (a fence being sent is not fenced itself)
+        retry, self._retry_next = self._retry_next, False
+        return len(abandoned) > 1 or not (retry and data == self._given_up_request)
 
     def _h_stray_packet(self, data: bytes) -> None:
         # An intact packet outside an exchange. A copy of the last answer we ACKed is the
@@ -1085,13 +1223,35 @@ class HostLink(Link):
             # arriving. Not ACKed (the controller dropped that exchange at our RST).
             self._emit(Ignored("stale packet with data in a stop's answer", self.state))
             return
-        if data == self._last_received and self._is_resend(data, self._now):
+        if data == self._last_received and (
+            (self._distinct and self._packets) or self._is_resend(data, self._now)
+        ):
+            if self._copies_of != self._packets:  # the first copy of this packet
+                self._copies_of = self._packets
+                self._copies = 0
+            self._copies += 1
+            if self._packets and self._copies > MAX_RESENDS:
+                # A copy of a packet of this exchange: the controller resends an unacknowledged
+                # packet at most MAX_RESENDS times; a copy beyond that is no resend.
+                self._rule_broken(
+                    LinkRuleError(
+                        "host",
+                        self.state.value,
+                        "packet",
+                        f"copy {self._copies + 1} of one packet: a controller resends at "
+                        f"most {MAX_RESENDS} times",
+                    )
+                )
+                return
             self._ack(data)
             self._emit(Ignored("resent answer (ACKed again)", self.state))
             if self.state is State.WAIT_ANSWER and not self._send_once:
                 # It could also be a very slow controller's answer: a read takes it if no
                 # other answer comes (a state change would rather be unknown than wrong).
-                self._maybe_answer = data
+                # Not when it came again (a slow controller answers once; a resending one
+                # up to MAX_RESENDS times), nor an END to an exchange that has none.
+                fits = self.shape is Shape.MULTI or _flag_of(data) != FLAG_END
+                self._maybe_answer = data if self._copies == 1 and fits else b""
             # Never shorten the wait: in WAIT_SECOND it runs to the announced work time.
             self._extend(self.timeout + self.resend_grace)
             return
@@ -1128,6 +1288,11 @@ class HostLink(Link):
             else:
                 self._emit(AnswerReceived(data, flag, final=False))
                 self.state = State.WAIT_MORE
+                # Progress, not only the overall limit: by then a controller resending this
+                # packet (our ACK lost) has given up, so a new packet must have come.
+                self._progress_by = (
+                    self._now + (MAX_RESENDS + 1) * self.peer_resend_after + self.resend_grace
+                )
                 self._arm(self.timeout + self.resend_grace)
             return
         if flag == FLAG_END:
@@ -1167,6 +1332,12 @@ class HostLink(Link):
             return
         if self._limit_at is not None and self._now >= self._limit_at:
             detail = "the exchange ran past its overall limit"
+        elif (
+            self.state is State.WAIT_MORE
+            and self._progress_by is not None
+            and self._now >= self._progress_by
+        ):
+            detail = "no new packet since a resending controller would have given up"
         else:
             detail = f"no answer within {self.timeout:g} s"
         if self._doubt:

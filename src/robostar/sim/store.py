@@ -17,15 +17,43 @@ from typing import Any
 
 from robostar.errors import UsageError
 
-__all__ = ["STATE_FILE", "StateStore"]
+__all__ = ["STATE_FILE", "StateFileError", "StateStore"]
 
 STATE_FILE = "state.json"
 _TEMP_PREFIX = ".state-"
 _TEMP_SUFFIX = ".tmp"
 
 
-def _refuse_constant(name: str) -> Any:
-    raise UsageError(f"state file: {name} is not a number a snapshot may hold (JSON has none)")
+class StateFileError(UsageError):
+    """A state file the simulator cannot start from; the message names the file."""
+
+    hint = "Fix the file, or remove it to start afresh. The simulator did not start."
+    """What to do about it (the console shows it in place of a usage hint)."""
+
+
+class _NotANumber:
+    """NaN, Infinity or -Infinity read from a state file (JSON has none): kept in place while
+    parsing, so that the error can name the key that holds it."""
+
+    def __init__(self, name: str) -> None:
+        self.name = name
+
+
+def _first_not_a_number(value: Any, path: str) -> tuple[str, str] | None:
+    """The key path and name of the first NaN or Infinity in ``value``, or None."""
+    if isinstance(value, _NotANumber):
+        return path, value.name
+    if isinstance(value, dict):
+        items = ((f"{path}.{key}" if path else str(key), item) for key, item in value.items())
+    elif isinstance(value, list):
+        items = ((f"{path}[{i}]", item) for i, item in enumerate(value))
+    else:
+        return None
+    for where, item in items:
+        found = _first_not_a_number(item, where)
+        if found is not None:
+            return found
+    return None
 
 
 class StateStore:
@@ -46,19 +74,23 @@ class StateStore:
         except FileNotFoundError:
             return None
         except UnicodeDecodeError as exc:
-            raise UsageError(
+            raise StateFileError(
                 f"state directory: {str(self.path)!r} is not UTF-8 text (byte {exc.start}); "
                 "fix it or remove it to start afresh"
             ) from None
         try:
-            snapshot = json.loads(text, parse_constant=_refuse_constant)
+            snapshot = json.loads(text, parse_constant=_NotANumber)
         except json.JSONDecodeError as exc:
-            raise UsageError(
+            raise StateFileError(
                 f"state directory: {str(self.path)!r} is not valid JSON ({exc}); "
                 "fix it or remove it to start afresh"
             ) from None
         if not isinstance(snapshot, dict):
-            raise UsageError(f"state directory: {str(self.path)!r} does not hold a JSON object")
+            raise StateFileError(f"state directory: {str(self.path)!r} does not hold a JSON object")
+        found = _first_not_a_number(snapshot, "")
+        if found is not None:
+            where, name = found
+            raise StateFileError(f"{self.path}: {where}: {name} is not a number")
         return snapshot
 
     def save(self, snapshot: dict[str, Any]) -> None:
