@@ -58,6 +58,7 @@ reliability: $(STAMP)
 	$(BIN)/python reliability/run.py fuzz --engine atheris --inputs 1000000
 	$(BIN)/python reliability/run.py matrix
 	$(BIN)/python reliability/run.py properties --examples 10000
+	$(BIN)/python -m pytest -m slow
 	$(BIN)/python reliability/run.py soak --exchanges 1000000
 	$(BIN)/python reliability/run.py table
 
