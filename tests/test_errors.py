@@ -1,12 +1,17 @@
-"""Tests of the exception tree: its shape, the standard bases, messages and error_for_flag."""
+"""The exception tree: its shape, the standard bases, messages, error_for_flag, and that
+errors.py's drawing lists every exception class of robostar under the module to catch it from."""
 
 from __future__ import annotations
 
+import importlib
 import inspect
+import pkgutil
 import re
+from types import ModuleType
 
 import pytest
 
+import robostar
 import robostar.errors as errors
 from robostar.errors import (
     AlarmRaisedError,
@@ -198,3 +203,106 @@ def test_error_for_flag_without_a_reason() -> None:
 def test_error_for_flag_refuses_flags_that_are_not_errors(flag: int) -> None:
     with pytest.raises(ValueError, match=f"0x{flag:02X}"):
         error_for_flag(flag, "AA")
+
+
+# The errors of the packages: errors.py's drawing lists each under the module to catch it from.
+
+_PACKAGE_ENTRY = re.compile(r"^ {6}(\w+) \(([\w., ]+)\)\s")
+_PACKAGE_HEADING = re.compile(r"^ {4}(robostar(?:\.\w+)+)\b")
+
+
+def _drawn_package_errors() -> dict[tuple[str, str], tuple[str, ...]]:
+    """(module, class name) -> drawn bases, from the docstring's package lists."""
+    drawn: dict[tuple[str, str], tuple[str, ...]] = {}
+    module = ""
+    for line in (errors.__doc__ or "").splitlines():
+        heading = _PACKAGE_HEADING.match(line)
+        if heading:
+            module = heading.group(1)
+            continue
+        entry = _PACKAGE_ENTRY.match(line)
+        if entry and module:
+            bases = tuple(base.strip() for base in entry.group(2).split(","))
+            drawn[(module, entry.group(1))] = bases
+    return drawn
+
+
+def _base_name(base: type) -> str:
+    """A base as the drawing writes it: bare for robostar's and builtins, else ``package.Name``."""
+    package = base.__module__.split(".")[0]
+    if package in ("robostar", "builtins"):
+        return base.__name__
+    return f"{package}.{base.__name__}"
+
+
+def _import_if_installed(name: str) -> ModuleType | None:
+    """The module, or None when it needs an optional extra that is not installed."""
+    try:
+        return importlib.import_module(name)
+    except ModuleNotFoundError as missing:
+        if (missing.name or "robostar").split(".")[0] == "robostar":
+            raise
+        return None
+
+
+def _modules_of_the_package() -> list[ModuleType]:
+    """Every module of robostar (``__main__`` modules run on import, so they are left out)."""
+    modules = []
+    for info in pkgutil.walk_packages(robostar.__path__, "robostar.", onerror=lambda _: None):
+        if info.name.rsplit(".", 1)[-1] == "__main__":
+            continue
+        module = _import_if_installed(info.name)
+        if module is not None:
+            modules.append(module)
+    return modules
+
+
+def _defined_exception_classes() -> dict[str, type[BaseException]]:
+    """``module.Name`` -> class, for every exception class defined anywhere in robostar."""
+    found: dict[str, type[BaseException]] = {}
+    for module in _modules_of_the_package():
+        for obj in vars(module).values():
+            if (
+                inspect.isclass(obj)
+                and issubclass(obj, BaseException)
+                and obj.__module__ == module.__name__
+            ):
+                found[f"{obj.__module__}.{obj.__qualname__}"] = obj
+    return found
+
+
+def test_the_drawing_lists_every_exception_class_of_the_package() -> None:
+    tree = {f"robostar.errors.{name}" for name in _exception_classes()}
+    drawn = _drawn_package_errors()
+    listed: set[type[BaseException]] = set()
+    for module, name in drawn:
+        imported = _import_if_installed(module)
+        if imported is None:  # an optional extra this install lacks
+            continue
+        cls = getattr(imported, name, None)
+        assert inspect.isclass(cls), f"{module}.{name} is drawn but cannot be caught from there"
+        listed.add(cls)
+    missing = {
+        where
+        for where, cls in _defined_exception_classes().items()
+        if where not in tree and cls not in listed
+    }
+    assert not missing, f"errors.py's drawing does not list {sorted(missing)}"
+
+
+def test_the_package_errors_are_drawn_with_their_bases() -> None:
+    drawn = _drawn_package_errors()
+    assert drawn, "the drawing's package lists are not found"
+    for (module, name), bases in drawn.items():
+        imported = _import_if_installed(module)
+        if imported is None:  # an optional extra this install lacks
+            continue
+        cls = getattr(imported, name)
+        assert bases == tuple(_base_name(base) for base in cls.__bases__), f"{module}.{name}"
+
+
+def test_the_line_server_errors_are_caught_from_robostar_serve() -> None:
+    serve = importlib.import_module("robostar.serve")
+    for module, name in _drawn_package_errors():
+        if module == "robostar.serve":
+            assert name in serve.__all__

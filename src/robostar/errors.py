@@ -30,12 +30,55 @@ Every error robostar raises is a :class:`RobostarError`. The tree splits errors 
 
 Where a controller error has a KD reason, it is in ``reason``.
 
-Packages with errors of their own, beside the code that raises them:
+Packages with errors of their own define them beside the code that raises them. Each is listed
+here under the module to catch it from (``except robostar.serve.LineDownError``), with its bases;
+tests/test_errors.py checks that this list names every exception class in robostar::
 
-- ``robostar.backup``: BackupWriteError (RobostarError, OSError) a backup could not be written
-  on this computer; RestoreIncompleteError (RobostarError) a restore stopped part-way through
-  its writes; RestoreInterrupted (KeyboardInterrupt) Ctrl-C during them. The last two carry
-  a RestoreState: what is written and verified, in doubt and not touched.
+    robostar.serve                        the line server
+      LineDownError (LineError)               the line is down or the server stops; nothing sent
+      LineBusyError (LineError)               too many reads wait for the line; nothing sent
+      AbortedByStopError (LineError)          a transfer was cancelled so that a stop goes out
+      WithdrawnError (LineError)              its requester went away before it was sent
+      ConfigError (UsageError)                the configuration is wrong (names the key)
+      LeaseHeldError (RobostarError)          the caller does not hold the controller's lease
+      LeaseLostError (LeaseHeldError)         the lease was lost while the change waited
+      AuditError (RobostarError)              the audit log cannot be written: changes refused
+    robostar.serve.faces.mqtt             the MQTT face (extra "mqtt")
+      BusyError (RobostarError)               too many commands wait for a line on this face
+    robostar.backup                       backup and restore
+      BackupWriteError (RobostarError, OSError)   a backup could not be written on this computer
+      RestoreIncompleteError (RobostarError)  a restore stopped part-way through its writes
+      RestoreInterrupted (KeyboardInterrupt)  Ctrl-C during a restore's writes
+    robostar.cli.profiles                 the console
+      ProfileError (click.UsageError)         a profile file or a key in it is wrong
+
+RestoreIncompleteError and RestoreInterrupted carry a RestoreState: what is written and
+verified, in doubt and not touched.
+
+Internal signals, caught inside the package that raises them (never seen by a caller)::
+
+    robostar.controller_role.session
+      Refusal (Exception)                     a backend will not carry a request out (flag, KD)
+    robostar.sim.state
+      Refused (Exception)                     the simulated controller will not carry it out
+    robostar.sim.jobs
+      JobSyntaxError (Exception)              a job's step does not parse
+    robostar.sim.motion
+      PathError (Exception)                   a simulated move cannot be made (names its alarm)
+    robostar.sim.kinematics
+      Unreachable (Exception)                 an XY point is outside the arm's reach
+    robostar.sim.snapshot
+      _Bad (Exception)                        a state file's value is wrong
+    robostar.serve.http_guard
+      BodyTooLarge (starlette.HTTPException)  an HTTP body grew past the limit (HTTP 413)
+    robostar.serve.faces.web.app
+      _Forbidden (Exception)                  a dashboard request is refused (HTTP status)
+    robostar.serve.faces.modbus.runner
+      _Refusal (RobostarError)                a Modbus write is refused (its reason register)
+    robostar.cli.session
+      DryRunDone (Exception)                  a dry run has printed its frames
+    robostar.cli.keys
+      TerminalLost (Exception)                the console's standard input closed
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""restore: a JOB file the controller holds under another job number is found by the
+"""restore: a JOB file the controller holds under another job number is caught by the
 preflight (nothing written), and a refusal that stops a restore part-way names the alarm it
 left."""
 

@@ -11,7 +11,7 @@ from robostar.serve import LineConfig, Quality
 from robostar.serve.line import Line
 
 from .line_fakes import wait_for
-from .test_queue import _Unpluggable
+from .test_line_queue import _Unpluggable
 
 
 def test_online_false_stays_good_when_the_cable_is_pulled_during_polls() -> None:

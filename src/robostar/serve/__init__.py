@@ -3,7 +3,14 @@
 from robostar.serve.audit import AuditError
 from robostar.serve.config import ConfigError, LineConfig, ServeConfig, load_config
 from robostar.serve.lease import Lease, LeaseHeldError, LeaseInfo, Who
-from robostar.serve.line import AbortedByStopError, Line, LineBusyError, LineDownError, LineHealth
+from robostar.serve.lease_gate import LeaseLostError
+from robostar.serve.line import Line, LineHealth
+from robostar.serve.line_errors import (
+    AbortedByStopError,
+    LineBusyError,
+    LineDownError,
+    WithdrawnError,
+)
 from robostar.serve.line_server import LineServer
 from robostar.serve.model import Change, ControllerModel, Quality, Sample, Subscription
 
@@ -16,6 +23,7 @@ __all__ = [
     "Lease",
     "LeaseHeldError",
     "LeaseInfo",
+    "LeaseLostError",
     "Line",
     "LineBusyError",
     "LineConfig",
@@ -27,5 +35,6 @@ __all__ = [
     "ServeConfig",
     "Subscription",
     "Who",
+    "WithdrawnError",
     "load_config",
 ]

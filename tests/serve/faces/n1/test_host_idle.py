@@ -1,5 +1,5 @@
 """Slots of the asyncio host are held only by connections in use: idle ones are closed after
-``idle_timeout``, dead peers are found by TCP keepalive, and a connection past ``max_clients`` is
+``idle_timeout``, dead peers are detected by TCP keepalive, and a connection past ``max_clients`` is
 told its request was not done (a definite refusal, not a vanished connection)."""
 
 from __future__ import annotations

@@ -8,14 +8,14 @@ import asyncio
 import json
 from pathlib import Path
 
+from tests.serve.line_fakes import FaultySim, hold_the_line, n1_server, wait_for
+
 from robostar.commands.control import ReadSpeed, SetSpeed
 from robostar.controller_role import ControllerSession
 from robostar.protocol.frame import RST, encode_packet
 from robostar.serve import LineConfig, Who
 from robostar.serve.faces.n1.backend import N1Backend
 from robostar.serve.line import Line
-
-from .line_fakes import FaultySim, hold_the_line, n1_server, wait_for
 
 ANN = Who("ann", "api")
 

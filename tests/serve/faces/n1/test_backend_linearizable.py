@@ -13,14 +13,13 @@ from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 
 import pytest
+from tests.serve.line_fakes import FaultySim
 
 from robostar import AsyncClient
 from robostar.errors import ControllerError
 from robostar.serve import LineConfig, LineServer, ServeConfig
 from robostar.sim import SimConfig, VirtualController
 from robostar.sim.alarms import AlarmCode
-
-from .line_fakes import FaultySim
 
 ROUNDS = 12
 STEP = 1.5

@@ -8,6 +8,7 @@ import asyncio
 from typing import Any
 
 import pytest
+from tests.serve.line_fakes import FaultySim
 
 from robostar import Client
 from robostar.client.aio import AsyncClient
@@ -16,8 +17,6 @@ from robostar.commands.control import ReadSpeed, SetSpeed
 from robostar.commands.system import ReadLastError
 from robostar.errors import FunctionFailedError, OutcomeUnknownError
 from robostar.serve import LineConfig, LineServer, ServeConfig
-
-from .line_fakes import FaultySim
 
 
 def _loses_setspeed_answers(sim: FaultySim) -> None:

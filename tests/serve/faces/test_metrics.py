@@ -86,9 +86,9 @@ def test_the_hosts_option_adds_names_and_the_token_is_asked_after_the_host() -> 
 
 
 def test_a_bad_hosts_option_is_named() -> None:
-    from robostar.serve.faces import metrics as metrics_face
+    from tests.serve.conftest import sim_server
 
-    from .conftest import sim_server
+    from robostar.serve.faces import metrics as metrics_face
 
     with pytest.raises(UsageError, match=r"metrics\.hosts"):
         metrics_face.create(sim_server(), {"listen": "127.0.0.1:0", "hosts": [1]})

@@ -1,7 +1,8 @@
 """A host that gives its request up at once — its RST (or its next request) in the same read as
 the request, or read before the line server's task for it has run — has its write withdrawn:
-nothing is sent, and the audit says so. (Found by review: the link told the backend only of
-input held after the turn began, and a withdraw before the task ran found nothing queued.)"""
+nothing is sent, and the audit says so: a giving-up that arrives in the same read as the request
+is told to the backend as well as one held after the turn began, and a withdraw that comes before
+the request is queued still finds it."""
 
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ import json
 from pathlib import Path
 
 import pytest
+from tests.serve.line_fakes import FaultySim, hold_the_line, n1_server
 
 from robostar.commands.control import SetSpeed
 from robostar.controller_role import ControllerSession
@@ -17,8 +19,6 @@ from robostar.protocol.frame import RST, encode_packet
 from robostar.serve import LineConfig
 from robostar.serve.faces.n1.backend import N1Backend
 from robostar.serve.line import Line
-
-from .line_fakes import FaultySim, hold_the_line, n1_server
 
 pytestmark = pytest.mark.timeout(30)
 

@@ -157,9 +157,9 @@ def test_a_served_line_works_for_a_client_and_stops_on_sigterm(tmp_path: Path) -
 
 
 def test_metrics_with_a_token_want_it_and_remote_metrics_need_one() -> None:
-    from robostar.serve.faces import metrics as metrics_face
+    from tests.serve.conftest import sim_server
 
-    from .conftest import sim_server
+    from robostar.serve.faces import metrics as metrics_face
 
     with pytest.raises(UsageError, match="needs a token"):
         metrics_face.create(sim_server(), {"listen": "0.0.0.0:0", "allow_remote": True})

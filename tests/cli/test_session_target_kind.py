@@ -17,7 +17,7 @@ Run = Callable[..., Result]
 @pytest.fixture
 def robot_like(served: Callable[..., str]) -> str:
     """A controller on this machine answering AD as a real N1 does (no -SIM): a served
-    simulator cannot any more (tests/cli/test_simulator_mark.py), so a stand-in does."""
+    simulator cannot any more (tests/cli/test_session_simulator_mark.py), so a stand-in does."""
     return served(RealControllerStandIn())
 
 
