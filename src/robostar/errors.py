@@ -51,6 +51,8 @@ tests/test_errors.py checks that this list names every exception class in robost
       RestoreInterrupted (KeyboardInterrupt)  Ctrl-C during a restore's writes
     robostar.cli.profiles                 the console
       ProfileError (click.UsageError)         a profile file or a key in it is wrong
+    robostar.sim.store                    the simulator's state folder
+      StateFileError (UsageError)             a state file it cannot start from (names the key)
 
 RestoreIncompleteError and RestoreInterrupted carry a RestoreState: what is written and
 verified, in doubt and not touched.
