@@ -145,7 +145,7 @@ def test_broker_restart_replays_the_buffered_changes_in_order(broker: Broker) ->
             # poller never writes: it would read the controller's own value over the last.)
             for k in range(30):
                 line.model.set("test/counter", 100 + k)
-                await asyncio.sleep(0.01)
+                await asyncio.sleep(0.05)
             topic = "robostar/cell1/test/counter"
             buffered = lambda: [  # noqa: E731
                 json.loads(r.payload)["value"] for r in link.buffer.peek(10_000) if r.topic == topic

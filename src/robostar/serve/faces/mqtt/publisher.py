@@ -1,0 +1,207 @@
+"""A line's values in the JSON tree: model changes -> reporter -> broker, or the buffer.
+
+The pump reads the line's model subscription and publishes each change the reporter lets
+through (report by exception, deadband, rate cap), retained, as JSON with its time and quality.
+While there is no connection, changes wait in the store-and-forward buffer; the next connection
+replays them in order, marked historical, before anything live.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import logging
+import os
+import sqlite3
+import time
+from typing import TYPE_CHECKING, Any
+
+import aiomqtt
+
+from robostar.serve.faces.mqtt.buffer import StoreAndForward
+from robostar.serve.faces.mqtt.connection import REPLAY_WINDOW, check_cancelled, wait_event
+from robostar.serve.faces.mqtt.payload import encode
+from robostar.serve.faces.mqtt.reporter import Reporter
+from robostar.serve.faces.mqtt.settings import MqttSettings
+from robostar.serve.faces.mqtt.topics import Topics
+from robostar.serve.model import Sample
+
+if TYPE_CHECKING:
+    from robostar.serve.line import Line
+
+__all__ = ["ValuePublisher"]
+
+log = logging.getLogger("robostar.serve.mqtt")
+
+
+class ValuePublisher:
+    """One line's values: its reporter, buffer, pump, and the replay of what waited."""
+
+    def __init__(self, line: Line, settings: MqttSettings, topics: Topics) -> None:
+        self.line = line
+        self.settings = settings
+        self.topics = topics
+        path = settings.buffer
+        if path != ":memory:":
+            os.makedirs(path, exist_ok=True)
+            path = os.path.join(path, f"{line.name}.sqlite")
+        self.buffer = StoreAndForward(path, max_rows=settings.buffer_rows)
+        self.reporter = Reporter(deadband=settings.deadband, max_rate=settings.rate)
+        self.client: aiomqtt.Client | None = None
+        """The connection values go out on (None: none, changes go to the buffer)."""
+        self._not_replaying = asyncio.Event()
+        """Clear while a replay runs: the pump then leaves changes in the reporter (the latest
+        per topic) instead of adding them to the buffer behind the replay."""
+        self._not_replaying.set()
+        self.published = 0
+        self.wake = asyncio.Event()
+        self.kicked = asyncio.Event()
+        """Set when a publish failed: the connection is dropped and made again (then replayed)."""
+        self.buffer_lost = 0
+        """Changes the buffer could not take (an SQLite error: a full disk): lost, counted."""
+        self._lost_logged = 0.0
+
+    @property
+    def replaying(self) -> bool:
+        return not self._not_replaying.is_set()
+
+    def go_live(self, client: aiomqtt.Client) -> None:
+        """Publish on ``client`` from now on, starting with the whole current state again."""
+        self.client = client
+        self.reporter.forget()  # the current state goes out again, retained
+        for key, sample in self.line.model.snapshot().items():
+            self.reporter.offer(key, sample)
+        self.wake.set()
+
+    async def pump(self) -> None:
+        with self.line.model.subscribe(maxsize=10_000) as changes:
+            for key, sample in self.line.model.snapshot().items():
+                self.reporter.offer(key, sample)
+            feeder = asyncio.create_task(self._feed(changes))
+            try:
+                while True:
+                    check_cancelled()
+                    if self.replaying:
+                        # Live changes wait in the reporter; the replay ends by offering the
+                        # current state again, so nothing here is lost or sent twice.
+                        await self._not_replaying.wait()
+                        continue
+                    now = time.monotonic()
+                    for key, sample in self.reporter.due(now):
+                        await self.send(key, sample)
+                    due = self.reporter.next_due(now)
+                    self.wake.clear()
+                    timeout = None if due is None else max(0.0, due - time.monotonic())
+                    await wait_event(self.wake, timeout)
+            finally:
+                feeder.cancel()
+
+    async def _feed(self, changes: Any) -> None:
+        async for change in changes:
+            self.reporter.offer(change.key, change.sample)
+            self.wake.set()
+
+    async def send(self, key: str, sample: Sample) -> None:
+        topic = self.topics.value(self.line.name, key)
+        # ``online`` is the birth/death topic: a bare true/false, as the last will says it.
+        online = key == "online"
+        payload = (b"true" if sample.value else b"false") if online else encode(sample)
+        if self.replaying:
+            # Taken from the reporter just before a replay began: the current state is offered
+            # again when the replay ends, so this adds nothing the broker will not get.
+            return
+        client = self.client
+        if client is None:  # only while not connected: a replay drains what is in the buffer
+            if not online:  # a line's state while the broker was away is history
+                self._keep(topic, encode(sample, historical=True))
+            return
+        try:
+            await client.publish(
+                topic,
+                payload,
+                qos=self.settings.qos,
+                retain=True,
+                timeout=self.settings.publish_timeout,
+            )
+            self.published += 1
+        except (aiomqtt.MqttError, TimeoutError) as exc:
+            check_cancelled()
+            if self.client is client:
+                log.warning("mqtt %s: publish failed (%s); buffering", self.line.name, exc)
+                self.client = None
+                self.kicked.set()
+            elif self.client is not None or self.replaying:
+                # A late failure of a connection that is already gone (its publish timed out
+                # after the face connected again): the new connection is fine, and it sends
+                # the current state anyway, so this change is neither buffered nor a reason to
+                # drop it.
+                log.info(
+                    "mqtt %s: a publish on the old connection failed (%s)", self.line.name, exc
+                )
+                return
+            if not online:
+                self._keep(topic, encode(sample, historical=True))
+
+    def _keep(self, topic: str, payload: bytes) -> None:
+        """Buffer a change for the replay. An SQLite error (a full disk) loses this change,
+        counted and logged, rather than ending the pump (and every later value with it)."""
+        try:
+            self.buffer.put(topic, payload, False)
+        except sqlite3.Error as exc:
+            self.buffer_lost += 1
+            now = time.monotonic()
+            if now >= self._lost_logged + 10.0:
+                self._lost_logged = now
+                log.error(
+                    "mqtt %s: a change was not buffered (%s); %d lost so far",
+                    self.line.name,
+                    exc,
+                    self.buffer_lost,
+                )
+
+    async def replay(self, client: aiomqtt.Client) -> None:
+        """Send what waited, in order, before anything live: the rows up to the newest one when
+        the replay begins (changes meanwhile wait in the reporter, so it always ends), a window
+        of them out at once (one round trip per window, not per row)."""
+        self._not_replaying.clear()
+        try:
+            upto = self.buffer.last_id()
+            while upto is not None:
+                batch = [row for row in self.buffer.peek(REPLAY_WINDOW) if row.id <= upto]
+                if not batch:
+                    break
+                outcomes = await asyncio.gather(
+                    *(
+                        client.publish(
+                            row.topic,
+                            row.payload,
+                            qos=self.settings.qos,
+                            retain=row.retain,
+                            timeout=self.settings.publish_timeout,
+                        )
+                        for row in batch
+                    ),
+                    return_exceptions=True,
+                )
+                # What went out is out: a broken replay resumes without it, never repeats it.
+                sent = [
+                    row.id
+                    for row, outcome in zip(batch, outcomes, strict=True)
+                    if not isinstance(outcome, BaseException)
+                ]
+                if sent:
+                    self.buffer.remove_ids(sent)
+                for outcome in outcomes:
+                    if isinstance(outcome, BaseException):
+                        raise outcome
+            if self.buffer.dropped or self.buffer_lost:
+                status = {
+                    "line": self.line.name,
+                    "dropped": self.buffer.dropped,
+                    "not_buffered": self.buffer_lost,
+                }
+                await client.publish(
+                    self.topics.server("buffer"), json.dumps(status).encode(), qos=1
+                )
+        finally:
+            self._not_replaying.set()
