@@ -46,6 +46,8 @@ class Host:
             async for message in client.messages:
                 raw = message.payload
                 assert isinstance(raw, bytes)
+                if str(message.topic).startswith("spBv1.0/STATE/"):
+                    continue  # a host application's JSON, not a node's payload
                 self.messages.append((str(message.topic), wire.read(raw)))
 
     def of(self, kind: str, device: str | None = None) -> list[wire.Payload]:
@@ -239,3 +241,31 @@ def test_dcmd_runs_an_allowed_command_and_refuses_the_rest(broker: Broker, tmp_p
 def test_bad_sparkplug_settings_are_refused(sparkplug: Any, error: str) -> None:
     with pytest.raises(UsageError, match=error):
         settings_from({"url": "mqtt://h", "sparkplug": sparkplug})
+
+
+def test_the_node_is_born_only_while_the_primary_host_is_online(broker: Broker) -> None:
+    config = _config(broker, reconnect_max=0.5)
+    faces = {"mqtt": {**config.faces["mqtt"], "sparkplug": {"group": GROUP, "node": NODE,
+                                                            "primary_host": "scada"}}}  # fmt: skip
+    config = ServeConfig(lines=config.lines, faces=faces)
+
+    async def state(client: aiomqtt.Client, online: bool) -> None:
+        body = json.dumps({"online": online, "timestamp": 1}).encode()
+        await client.publish("spBv1.0/STATE/scada", body, qos=1, retain=True)
+
+    async def main() -> None:
+        host, task = await _host(broker)
+        async with LineServer(config) as server:
+            await server.lines["cell1"].wait_polled()
+            await asyncio.sleep(1.0)
+            assert host.of("NBIRTH") == []  # no primary host online yet
+            assert host.client is not None
+            await state(host.client, True)
+            await until(lambda: host.of("DBIRTH", "cell1") != [])
+            await state(host.client, False)  # the host went away: the session ends
+            await until(lambda: host.of("NDEATH") != [])
+            await state(host.client, True)  # back: born again
+            await until(lambda: len(host.of("NBIRTH")) >= 2, 30)
+        task.cancel()
+
+    asyncio.run(main())

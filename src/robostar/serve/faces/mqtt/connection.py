@@ -61,7 +61,9 @@ def check_cancelled() -> None:
 async def wait_event(event: asyncio.Event, timeout: float | None) -> None:
     """Wait until ``event`` is set or ``timeout`` passes. Not wait_for nor asyncio.timeout: on
     Python 3.11 both can swallow a cancellation that races with the event or the timeout, and
-    a stop would then wait forever for this task. asyncio.wait never does."""
+    a stop would then wait forever for this task. asyncio.wait never does. A cancellation an
+    earlier await swallowed (a publish's wait_for) is raised here, before waiting."""
+    check_cancelled()
     waiter = asyncio.ensure_future(event.wait())
     try:
         await asyncio.wait({waiter}, timeout=timeout)

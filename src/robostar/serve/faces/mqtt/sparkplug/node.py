@@ -24,7 +24,12 @@ from google.protobuf.message import DecodeError
 
 from robostar.errors import RobostarError, UsageError
 from robostar.serve.faces.mqtt.commands import make_command, read_params
-from robostar.serve.faces.mqtt.connection import check_cancelled, keep_connected, new_client
+from robostar.serve.faces.mqtt.connection import (
+    check_cancelled,
+    keep_connected,
+    new_client,
+    wait_event,
+)
 from robostar.serve.faces.mqtt.leaves import channel_of, leaves, robot_of
 from robostar.serve.faces.mqtt.reporter import Reporter
 from robostar.serve.faces.mqtt.settings import MqttSettings, SparkplugSettings
@@ -119,6 +124,7 @@ class SparkplugNode:
         """A clean stop: the NDEATH the will would have said (a clean disconnect sends none)."""
         client = self.client
         if client is not None:
+            self.client = None
             with contextlib.suppress(aiomqtt.MqttError, TimeoutError):
                 await client.publish(self.topics.of_node("NDEATH"), self.death, qos=1, timeout=2.0)
 
@@ -149,7 +155,9 @@ class SparkplugNode:
             if host is not None and topic == SparkplugTopics.state(host):
                 if _host_online(message) is False:
                     # The specification: an edge node whose primary host went away ends its
-                    # session, and is born again once the host is back.
+                    # session (a clean disconnect: the death said, as the will is not), and is
+                    # born again once the host is back.
+                    await self.say_death()
                     raise aiomqtt.MqttError(f"the primary host {host} is offline")
             elif topic == self.topics.of_node("NCMD"):
                 if _asks_rebirth(message):
@@ -202,11 +210,7 @@ class SparkplugNode:
                         # Up but not polled through yet, or down: look again soon (a first
                         # poll that changes nothing more wakes no one).
                         timeout = min(timeout, _UNBORN_RETRY) if timeout else _UNBORN_RETRY
-                    waiter = asyncio.ensure_future(device.wake.wait())
-                    try:
-                        await asyncio.wait({waiter}, timeout=timeout)
-                    finally:
-                        waiter.cancel()
+                    await wait_event(device.wake, timeout)
             finally:
                 feeder.cancel()
 
