@@ -124,6 +124,7 @@ class _BrokerLink:
     async def connect_loop(self) -> None:
         def lost() -> None:
             self.values.client = None
+            self.values.first_attempt_over()
 
         client_id = f"{self.face.settings.client_id}-{self.line.name}"
         online = self.face.topics.online(self.line.name)
@@ -139,17 +140,15 @@ class _BrokerLink:
         """One connection of the line's values and commands: birth, replay, then commands."""
         settings = self.face.settings
         topics = self.face.topics
-        online = topics.online(self.line.name)
         values = self.values
         # A kick is about the connection before this one (a publish that failed while there
         # was none): it must not end this one.
         values.kicked.clear()
-        up = b"true" if self.line.up else b"false"
-        await client.publish(online, up, qos=1, retain=True)
+        born = await values.birth(client)  # info, then online: once per connection
         if settings.commands:
             await client.subscribe(topics.commands(self.line.name), options=command_options())
         await values.replay(client)
-        values.go_live(client)
+        values.go_live(client, born)
         log.info("mqtt %s: connected to %s:%d", self.line.name, settings.host, settings.port)
         check_cancelled()  # (the publishes and the replay above use wait_for too)
         reader = asyncio.create_task(self.requests.read(client))
@@ -286,6 +285,7 @@ class MqttFace:
             task.cancel()
         await asyncio.gather(*pumps, return_exceptions=True)
         for link in self.links.values():
+            await link.values.say_stopped()
             client = link.values.client
             if client is not None:
                 with contextlib.suppress(aiomqtt.MqttError, TimeoutError):

@@ -20,11 +20,13 @@ import aiomqtt
 
 from robostar.serve.faces.mqtt.buffer import StoreAndForward
 from robostar.serve.faces.mqtt.connection import REPLAY_WINDOW, check_cancelled, wait_event
-from robostar.serve.faces.mqtt.payload import encode
+from robostar.serve.faces.mqtt.leaves import channel_of, robot_of
+from robostar.serve.faces.mqtt.payload import OFFLINE, encode
 from robostar.serve.faces.mqtt.reporter import Reporter
 from robostar.serve.faces.mqtt.settings import MqttSettings
 from robostar.serve.faces.mqtt.topics import Topics
 from robostar.serve.model import Sample
+from robostar.types import IOState
 
 if TYPE_CHECKING:
     from robostar.serve.line import Line
@@ -60,18 +62,84 @@ class ValuePublisher:
         self.buffer_lost = 0
         """Changes the buffer could not take (an SQLite error: a full disk): lost, counted."""
         self._lost_logged = 0.0
+        self._started = asyncio.Event()
+        """Set once the first connection is made or has failed: until then changes wait in the
+        reporter (the latest per topic), so a start with the broker up sends live values, not
+        a buffer of history made while connecting."""
+        self._sent: dict[str, Sample] = {}
+        """What each value topic last said (a clean stop says it again, offline)."""
+        self._contacts: dict[str, tuple[bool, ...]] = {}
+        """Each I/O port's contacts as last published one topic per signal."""
+
+    def first_attempt_over(self) -> None:
+        """The first connection was made or failed: from now on, unsent changes are history."""
+        self._started.set()
 
     @property
     def replaying(self) -> bool:
         return not self._not_replaying.is_set()
 
-    def go_live(self, client: aiomqtt.Client) -> None:
-        """Publish on ``client`` from now on, starting with the whole current state again."""
+    async def birth(self, client: aiomqtt.Client) -> dict[str, Sample]:
+        """The line's birth on a new connection: ``info``, then ``online`` (bare true/false,
+        as the last will says it), retained, before anything else; what it published."""
+        snapshot = self.line.model.snapshot()
+        born: dict[str, Sample] = {}
+        info = snapshot.get("info")
+        if info is not None:
+            await client.publish(
+                self.topics.value(self.line.name, "info"),
+                encode(info),
+                qos=self.settings.qos,
+                retain=True,
+                timeout=self.settings.publish_timeout,
+            )
+            born["info"] = info
+        online = snapshot.get("online")
+        up = self.line.up if online is None else bool(online.value)
+        await client.publish(
+            self.topics.online(self.line.name),
+            b"true" if up else b"false",
+            qos=1,
+            retain=True,
+            timeout=self.settings.publish_timeout,
+        )
+        if online is not None:
+            born["online"] = online
+        return born
+
+    def go_live(self, client: aiomqtt.Client, born: dict[str, Sample]) -> None:
+        """Publish on ``client`` from now on, starting with the whole current state again
+        (but what the birth said: ``online`` once per connection)."""
         self.client = client
+        self._started.set()
         self.reporter.forget()  # the current state goes out again, retained
+        self._contacts.clear()
+        for key, sample in born.items():
+            self.reporter.mark_sent(key, sample)
+            if key != "online":
+                self._sent[key] = sample
         for key, sample in self.line.model.snapshot().items():
             self.reporter.offer(key, sample)
         self.wake.set()
+
+    async def say_stopped(self) -> None:
+        """A clean stop: every value said again, retained, with the quality ``offline``."""
+        client = self.client
+        if client is None:
+            return
+        await asyncio.gather(
+            *(
+                client.publish(
+                    self.topics.value(self.line.name, key),
+                    encode(sample, robot=robot_of(self.line.info, key), quality=OFFLINE),
+                    qos=self.settings.qos,
+                    retain=True,
+                    timeout=2.0,
+                )
+                for key, sample in self._sent.items()
+            ),
+            return_exceptions=True,
+        )
 
     async def pump(self) -> None:
         with self.line.model.subscribe(maxsize=10_000) as changes:
@@ -81,6 +149,9 @@ class ValuePublisher:
             try:
                 while True:
                     check_cancelled()
+                    if not self._started.is_set():
+                        await self._started.wait()
+                        continue
                     if self.replaying:
                         # Live changes wait in the reporter; the replay ends by offering the
                         # current state again, so nothing here is lost or sent twice.
@@ -102,10 +173,14 @@ class ValuePublisher:
             self.wake.set()
 
     async def send(self, key: str, sample: Sample) -> None:
+        channel = channel_of(key)
+        if channel is not None and channel not in self.line.channels():
+            return  # a channel the controller does not have
         topic = self.topics.value(self.line.name, key)
         # ``online`` is the birth/death topic: a bare true/false, as the last will says it.
         online = key == "online"
-        payload = (b"true" if sample.value else b"false") if online else encode(sample)
+        robot = robot_of(self.line.info, key)
+        payload = (b"true" if sample.value else b"false") if online else encode(sample, robot=robot)
         if self.replaying:
             # Taken from the reporter just before a replay began: the current state is offered
             # again when the replay ends, so this adds nothing the broker will not get.
@@ -113,7 +188,7 @@ class ValuePublisher:
         client = self.client
         if client is None:  # only while not connected: a replay drains what is in the buffer
             if not online:  # a line's state while the broker was away is history
-                self._keep(topic, encode(sample, historical=True))
+                self._keep(topic, encode(sample, historical=True, robot=robot))
             return
         try:
             await client.publish(
@@ -124,6 +199,10 @@ class ValuePublisher:
                 timeout=self.settings.publish_timeout,
             )
             self.published += 1
+            if not online:
+                self._sent[key] = sample
+            if isinstance(sample.value, IOState):
+                await self._send_signals(client, key, sample)
         except (aiomqtt.MqttError, TimeoutError) as exc:
             check_cancelled()
             if self.client is client:
@@ -140,7 +219,25 @@ class ValuePublisher:
                 )
                 return
             if not online:
-                self._keep(topic, encode(sample, historical=True))
+                self._keep(topic, encode(sample, historical=True, robot=robot))
+
+    async def _send_signals(self, client: aiomqtt.Client, key: str, sample: Sample) -> None:
+        """An I/O port's contacts, one topic per signal beside the port (``io/in/0/3``): those
+        that changed since they were last published."""
+        contacts = tuple(sample.value.contacts)
+        last = self._contacts.get(key)
+        self._contacts[key] = contacts
+        for contact, on in enumerate(contacts):
+            if last is not None and contact < len(last) and last[contact] == on:
+                continue
+            await client.publish(
+                self.topics.value(self.line.name, f"{key}/{contact}"),
+                encode(Sample(on, sample.at, sample.quality)),
+                qos=self.settings.qos,
+                retain=True,
+                timeout=self.settings.publish_timeout,
+            )
+            self.published += 1
 
     def _keep(self, topic: str, payload: bytes) -> None:
         """Buffer a change for the replay. An SQLite error (a full disk) loses this change,

@@ -23,7 +23,7 @@ from paho.mqtt.properties import Properties
 
 from robostar.commands.base import Command
 from robostar.errors import RobostarError, UsageError
-from robostar.serve.faces.mqtt.commands import ESTOP, make_command, read_params
+from robostar.serve.faces.mqtt.commands import COMMANDS, ESTOP, make_commands, read_params
 from robostar.serve.faces.mqtt.connection import check_cancelled, command_options, keep_connected
 from robostar.serve.faces.mqtt.settings import MqttSettings
 from robostar.serve.faces.mqtt.topics import Topics, response_topic_problem
@@ -139,6 +139,12 @@ class CommandRequests:
                 problem = UsageError(
                     "a retained command message is refused (it would run again at every"
                     " reconnect); publish commands without retain"
+                )
+                self._refuse_later(client, message, name, problem)
+                continue
+            if name not in COMMANDS:
+                problem = UsageError(
+                    f"unknown command {short(name)!r} (commands: {', '.join(sorted(COMMANDS))})"
                 )
                 self._refuse_later(client, message, name, problem)
                 continue
@@ -275,13 +281,16 @@ class CommandRequests:
             request_id = params.get("id")
             if topic_problem is not None:
                 raise UsageError(f"{topic_problem}; the command was not run")
-            command = make_command(name, params)
-            command.encode()  # every field's range, as the wire would refuse it
+            commands = make_commands(name, params)
+            for command in commands:
+                command.encode()  # every field's range, as the wire would refuse it
         except RobostarError as exc:
             await self._refuse(client, message, name, exc, command, request_id)
             return
         try:
-            result = await self.line.execute(command, who=self.who, implicit_lease=True)
+            result: Any = None
+            for command in commands:  # in order; the first refusal ends the sequence
+                result = await self.line.execute(command, who=self.who, implicit_lease=True)
             body: dict[str, Any] = {"ok": True, "result": jsonable(result)}
         except RobostarError as exc:  # execute audited it
             body = {"ok": False, "error": str(exc), "kind": type(exc).__name__}

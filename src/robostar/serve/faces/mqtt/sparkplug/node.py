@@ -23,7 +23,7 @@ import aiomqtt
 from google.protobuf.message import DecodeError
 
 from robostar.errors import RobostarError, UsageError
-from robostar.serve.faces.mqtt.commands import make_command, read_params
+from robostar.serve.faces.mqtt.commands import make_commands, read_params
 from robostar.serve.faces.mqtt.connection import (
     check_cancelled,
     keep_connected,
@@ -302,13 +302,16 @@ class SparkplugNode:
             if name not in self.settings.commands:
                 raise UsageError(f"command {name[:80]!r} is not enabled on this server")
             params = read_params(text)
-            command = make_command(name, params)
-            command.encode()
+            commands = make_commands(name, params)
+            for command in commands:
+                command.encode()  # every field's range, as the wire would refuse it
         except RobostarError as exc:
             line.record(f"cmd/{name[:80]}", self.who, f"refused: {exc}")
             return {"ok": False, "error": str(exc), "kind": type(exc).__name__}
         try:
-            result = await line.execute(command, who=self.who, implicit_lease=True)
+            result: Any = None
+            for command in commands:  # in order; the first refusal ends the sequence
+                result = await line.execute(command, who=self.who, implicit_lease=True)
         except RobostarError as exc:  # execute audited it
             return {"ok": False, "error": str(exc), "kind": type(exc).__name__}
         return {"ok": True, "result": jsonable(result)}
