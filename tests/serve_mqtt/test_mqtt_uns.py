@@ -1,7 +1,7 @@
 """The JSON tree as a Unified Namespace (issue #29): positions as named axes with units, one
-topic per I/O signal beside the port, an unknown command named unknown, live (not historical)
-first values and one ``online true`` after ``info`` at a start with the broker up, and the
-retained values marked ``offline`` after a clean stop."""
+topic per I/O signal beside the port, only the controller's channels, an unknown command named
+unknown, live (not historical) first values and one ``online true`` after ``info`` at a start
+with the broker up, and the retained values marked ``offline`` after a clean stop."""
 
 from __future__ import annotations
 
@@ -54,6 +54,8 @@ def test_values_for_a_unified_namespace(broker: Broker) -> None:
     port = sub.values(f"{ROOT}/io/in/0")[0]["value"]
     assert len(port["contacts"]) == 16  # the port array stays
     assert sub.values(f"{ROOT}/io/in/0/3")[0]["value"] is False
+    # Only the channels the controller has (the simulator has 2; the model knows a 3rd).
+    assert not [t for t, _, _ in sub.messages if t.startswith(f"{ROOT}/ch3/")]
 
 
 def test_a_start_is_live_and_born_once_a_clean_stop_says_offline(broker: Broker) -> None:

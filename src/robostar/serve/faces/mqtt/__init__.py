@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING, Any
 
 import aiomqtt
 
+from robostar.errors import UsageError
 from robostar.serve.faces.mqtt.buffer import StoreAndForward
 from robostar.serve.faces.mqtt.connection import (
     QueueFullFilter,
@@ -40,6 +41,7 @@ from robostar.serve.faces.mqtt.reporter import Reporter
 from robostar.serve.faces.mqtt.requests import BusyError, CommandRequests, Lane
 from robostar.serve.faces.mqtt.settings import MqttSettings, settings_from
 from robostar.serve.faces.mqtt.sparkplug.node import SparkplugNode
+from robostar.serve.faces.mqtt.sparkplug.session import rebirth_request
 from robostar.serve.faces.mqtt.topics import Topics
 from robostar.serve.lease import Who
 from robostar.serve.model import Sample
@@ -51,6 +53,9 @@ if TYPE_CHECKING:
 __all__ = ["BusyError", "MqttFace", "MqttSettings", "QueueFullFilter", "create", "settings_from"]
 
 log = logging.getLogger("robostar.serve.mqtt")
+
+ALONE_WAIT = 1.0
+"""How long a start listens for another server's birth under its prefix or Sparkplug node."""
 
 
 class _BrokerLink:
@@ -123,8 +128,7 @@ class _BrokerLink:
 
     async def connect_loop(self) -> None:
         def lost() -> None:
-            self.values.client = None
-            self.values.first_attempt_over()
+            self.values.connection_lost()
 
         client_id = f"{self.face.settings.client_id}-{self.line.name}"
         online = self.face.topics.online(self.line.name)
@@ -222,6 +226,9 @@ class MqttFace:
         task.add_done_callback(ended)
 
     async def start(self) -> None:
+        await self._check_alone()
+        # The server's birth first: a subscriber that sees a line's values sees the server's.
+        self._spawn("server presence", self._server_presence)
         for name, line in self.server.lines.items():
             link = self.links[name] = _BrokerLink(self, line)
             self._spawn(f"{name} pump", link.pump, self._pumps)
@@ -237,7 +244,6 @@ class MqttFace:
                 self._spawn(f"{name} answers", requests.answer_loop)
             if requests.stop_names:
                 self._spawn(f"{name} stops connection", requests.stop_loop)
-        self._spawn("server presence", self._server_presence)
         node = self.sparkplug
         if node is not None:
             self._spawn("sparkplug node", node.run)
@@ -252,6 +258,73 @@ class MqttFace:
             self.settings.host,
             self.settings.port,
         )
+
+    async def _check_alone(self) -> None:
+        """:meth:`_look_for_another`, bounded: a broker that does not answer in time (or a
+        connect that hangs) leaves it unchecked, logged, rather than holding up the start."""
+        probe = asyncio.create_task(self._look_for_another())
+        done, _ = await asyncio.wait({probe}, timeout=self.settings.publish_timeout + ALONE_WAIT)
+        if probe in done:
+            probe.result()  # the refusal, if another server is there
+            return
+        probe.cancel()
+        log.warning("mqtt face: the broker did not answer in time; another server not looked for")
+
+    async def _look_for_another(self) -> None:
+        """Refuse to start beside another server online under the same prefix or Sparkplug
+        node on this broker: their values, commands and births would mix. The retained
+        ``<prefix>/_server/online`` tells of a JSON tree (its will says false when it dies); a
+        Sparkplug node is asked to be born again (NCMD rebirth), and a live one answers with
+        an NBIRTH. A broker out of reach is no reason not to start (store and forward)."""
+        online = self.topics.server("online")
+        # A message of our own after the subscriptions: the broker sends the retained ones
+        # before it, so once it is back there is no retained birth left to wait for.
+        marker = self.topics.server(f"probe/{self.settings.client_id}")
+        node = self.sparkplug
+        births = None if node is None else node.topics.of_node("NBIRTH")
+        found: list[str] = []
+        loop = asyncio.get_running_loop()
+        try:
+            async with self.client(f"{self.settings.client_id}-probe", None) as probe:
+                await probe.subscribe(online, qos=1)
+                await probe.subscribe(marker, qos=1)
+                if node is not None and births is not None:
+                    await probe.subscribe(births, qos=0)
+                    await probe.publish(node.topics.of_node("NCMD"), rebirth_request(), qos=1)
+                await probe.publish(marker, b"", qos=1)
+                # A live node answers the rebirth request within the wait; a JSON tree's
+                # retained birth is in before the marker.
+                deadline = loop.time() + (ALONE_WAIT if node is not None else 10.0)
+                messages = aiter(probe.messages)
+                marked = False
+                while not found and (left := deadline - loop.time()) > 0:
+                    waiter = asyncio.ensure_future(anext(messages))
+                    done, _ = await asyncio.wait({waiter}, timeout=left)
+                    if not done:
+                        waiter.cancel()
+                        break
+                    message = waiter.result()
+                    topic = str(message.topic)
+                    if topic == marker:
+                        marked = True
+                        if node is None:
+                            break
+                    elif topic == online and message.payload == b"true":
+                        found.append(f"a server is online under the prefix {self.topics.prefix!r}")
+                    elif node is not None and topic == births:
+                        group, name = node.topics.group, node.topics.node
+                        found.append(f"the Sparkplug node {group}/{name} is online")
+                if not marked and not found:
+                    log.warning("mqtt face: the broker did not echo the probe; not checked")
+        except (aiomqtt.MqttError, TimeoutError) as exc:
+            log.warning("mqtt face: could not look for another server on the broker (%s)", exc)
+            return
+        if found:
+            raise UsageError(
+                f"mqtt: {found[0]} on {self.settings.host}:{self.settings.port}; give this server"
+                " another prefix or Sparkplug node id (two servers there would mix their values"
+                " and commands)"
+            )
 
     async def _server_presence(self) -> None:
         online = self.topics.server("online")

@@ -68,11 +68,16 @@ class ValuePublisher:
         a buffer of history made while connecting."""
         self._sent: dict[str, Sample] = {}
         """What each value topic last said (a clean stop says it again, offline)."""
+        self._lost = asyncio.Event()
+        """Set while there is no connection (a publish still waiting on the last one ends)."""
+        self._lost.set()
         self._contacts: dict[str, tuple[bool, ...]] = {}
         """Each I/O port's contacts as last published one topic per signal."""
 
-    def first_attempt_over(self) -> None:
-        """The first connection was made or failed: from now on, unsent changes are history."""
+    def connection_lost(self) -> None:
+        """The connection went: no publish waits for it any more; changes go to the buffer."""
+        self.client = None
+        self._lost.set()
         self._started.set()
 
     @property
@@ -111,6 +116,7 @@ class ValuePublisher:
         """Publish on ``client`` from now on, starting with the whole current state again
         (but what the birth said: ``online`` once per connection)."""
         self.client = client
+        self._lost.clear()
         self._started.set()
         self.reporter.forget()  # the current state goes out again, retained
         self._contacts.clear()
@@ -191,13 +197,7 @@ class ValuePublisher:
                 self._keep(topic, encode(sample, historical=True, robot=robot))
             return
         try:
-            await client.publish(
-                topic,
-                payload,
-                qos=self.settings.qos,
-                retain=True,
-                timeout=self.settings.publish_timeout,
-            )
+            await self._publish_while_connected(client, topic, payload)
             self.published += 1
             if not online:
                 self._sent[key] = sample
@@ -220,6 +220,34 @@ class ValuePublisher:
                 return
             if not online:
                 self._keep(topic, encode(sample, historical=True, robot=robot))
+
+    async def _publish_while_connected(
+        self, client: aiomqtt.Client, topic: str, payload: bytes
+    ) -> None:
+        """Publish a value, retained; MqttError at once when the connection is lost meanwhile.
+        aiomqtt lets a publish wait for its acknowledgement until ``publish_timeout`` even after
+        the connection went: the pump would be held that long while the model's changes
+        coalesce, and the buffer would miss all but the last of them."""
+        publishing = asyncio.ensure_future(
+            client.publish(
+                topic,
+                payload,
+                qos=self.settings.qos,
+                retain=True,
+                timeout=self.settings.publish_timeout,
+            )
+        )
+        lost = asyncio.ensure_future(self._lost.wait())
+        try:
+            await asyncio.wait({publishing, lost}, return_when=asyncio.FIRST_COMPLETED)
+        finally:
+            lost.cancel()
+            if not publishing.done():
+                publishing.cancel()
+        if publishing.cancelled():
+            check_cancelled()
+            raise aiomqtt.MqttError("the connection was lost before the broker acknowledged")
+        publishing.result()
 
     async def _send_signals(self, client: aiomqtt.Client, key: str, sample: Sample) -> None:
         """An I/O port's contacts, one topic per signal beside the port (``io/in/0/3``): those

@@ -34,6 +34,7 @@ __all__ = [
     "SparkplugTopics",
     "decode",
     "quality_code",
+    "rebirth_request",
 ]
 
 NAMESPACE = "spBv1.0"
@@ -248,6 +249,14 @@ def _property(metric: pb.Payload.Metric, key: str, datatype: int, value: int | s
         prop.string_value = value
     else:
         prop.int_value = value
+
+
+def rebirth_request(now: float | None = None) -> bytes:
+    """An NCMD asking a node to be born again (as a host application asks it)."""
+    payload = pb.Payload(timestamp=_ms(time.time() if now is None else now))
+    metric = payload.metrics.add(name=REBIRTH, datatype=pb.Boolean)
+    metric.boolean_value = True
+    return payload.SerializeToString()
 
 
 def decode(payload: bytes) -> pb.Payload:
