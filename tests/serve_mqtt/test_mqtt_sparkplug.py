@@ -269,3 +269,39 @@ def test_the_node_is_born_only_while_the_primary_host_is_online(broker: Broker) 
         task.cancel()
 
     asyncio.run(main())
+
+
+def test_a_dcmd_stop_never_waits_behind_another_command(broker: Broker) -> None:
+    config = _config(broker, commands={"enabled": True, "allow": ["speed", "stop_job"]})
+
+    async def main() -> None:
+        host, task = await _host(broker)
+        async with LineServer(config) as server:
+            await until(lambda: host.of("DBIRTH", "cell1") != [])
+            line = server.lines["cell1"]
+            real, release = line.execute, asyncio.Event()
+
+            async def held(command: Any, **kwargs: Any) -> Any:
+                if type(command).__name__ == "SetSpeed":
+                    await release.wait()  # a command that takes its time
+                return await real(command, **kwargs)
+
+            line.execute = held  # type: ignore[method-assign]
+            assert host.client is not None
+            topic = f"spBv1.0/{GROUP}/DCMD/{NODE}/cell1"
+            speed = wire.command_request("cmd/speed", '{"channel": 1, "value": 45}')
+            stop = wire.command_request("cmd/stop_job", '{"channel": 1}')
+            await host.client.publish(topic, speed, qos=1)
+            await host.client.publish(topic, stop, qos=1)
+            birth = _by_name(host.of("DBIRTH", "cell1")[0])
+            stop_result = birth["cmd/stop_job/result"].alias
+            await until(
+                lambda: any(
+                    m.alias == stop_result for p in host.of("DDATA", "cell1") for m in p.metrics
+                )
+            )
+            assert not release.is_set()  # the stop ran while the speed still waited
+            release.set()
+        task.cancel()
+
+    asyncio.run(main())

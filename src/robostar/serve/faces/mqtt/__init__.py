@@ -252,6 +252,8 @@ class MqttFace:
                 self._spawn(f"sparkplug {name} pump", pump, self._pumps)
                 if self.settings.commands:
                     self._spawn(f"sparkplug {name} commands", functools.partial(node.work, name))
+                    stops = functools.partial(node.work, name, stops=True)
+                    self._spawn(f"sparkplug {name} stops", stops)
         log.info(
             "mqtt face: %d line(s) to %s:%d",
             len(self.links),

@@ -32,6 +32,7 @@ from robostar.serve.faces.mqtt.connection import (
 )
 from robostar.serve.faces.mqtt.leaves import channel_of, leaves, robot_of
 from robostar.serve.faces.mqtt.reporter import Reporter
+from robostar.serve.faces.mqtt.requests import STOP_NAMES
 from robostar.serve.faces.mqtt.settings import MqttSettings, SparkplugSettings
 from robostar.serve.faces.mqtt.sparkplug.session import (
     REBIRTH,
@@ -86,6 +87,8 @@ class _Device:
         self.reporter = Reporter(deadband=settings.deadband, max_rate=settings.rate)
         self.wake = asyncio.Event()
         self.commands: asyncio.Queue[tuple[str, bytes]] = asyncio.Queue(settings.max_pending)
+        self.stops: asyncio.Queue[tuple[str, bytes]] = asyncio.Queue(settings.max_pending)
+        """The stops' own lane (``estop``, ``stop_job``): never behind another command."""
 
 
 class SparkplugNode:
@@ -276,15 +279,18 @@ class SparkplugNode:
                 continue
             text = metric.string_value.encode() if metric.HasField("string_value") else b""
             try:
-                device.commands.put_nowait((metric_name[4:], text))
+                lane = device.stops if metric_name[4:] in STOP_NAMES else device.commands
+                lane.put_nowait((metric_name[4:], text))
             except asyncio.QueueFull:
                 device.line.record(f"cmd/{metric_name[4:80]}", self.who, "refused: busy")
 
-    async def work(self, name: str) -> None:
-        """Run one device's commands one at a time; each outcome is a ``.../result`` DDATA."""
+    async def work(self, name: str, stops: bool = False) -> None:
+        """Run one device's commands (or its stops) one at a time; each outcome is a
+        ``.../result`` DDATA."""
         device = self.devices[name]
+        lane = device.stops if stops else device.commands
         while True:
-            command_name, text = await device.commands.get()
+            command_name, text = await lane.get()
             body = await self._run(device.line, command_name, text)
             client = self.client
             if client is None or name not in self.session.born:
