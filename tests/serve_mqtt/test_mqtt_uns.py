@@ -70,6 +70,7 @@ def test_a_start_is_live_and_born_once_a_clean_stop_says_offline(broker: Broker)
     # After the stop, each value is said again, retained, no longer vouched for.
     offline = sub.values(f"{ROOT}/ch1/status")[-1]
     assert offline["quality"] == "offline"
+    assert sub.values(f"{ROOT}/io/in/0/15")[-1]["quality"] == "offline"
 
 
 def test_an_unknown_command_is_named_unknown(broker: Broker, tmp_path: Path) -> None:

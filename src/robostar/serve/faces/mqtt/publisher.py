@@ -129,20 +129,31 @@ class ValuePublisher:
         self.wake.set()
 
     async def say_stopped(self) -> None:
-        """A clean stop: every value said again, retained, with the quality ``offline``."""
+        """A clean stop: every value (and every I/O signal) said again, retained, with the
+        quality ``offline``."""
         client = self.client
         if client is None:
             return
+        messages = [
+            (key, encode(sample, robot=robot_of(self.line.info, key), quality=OFFLINE))
+            for key, sample in self._sent.items()
+        ]
+        for key, contacts in self._contacts.items():
+            at = self._sent[key].at if key in self._sent else time.time()
+            messages += [
+                (f"{key}/{contact}", encode(Sample(on, at), quality=OFFLINE))
+                for contact, on in enumerate(contacts)
+            ]
         await asyncio.gather(
             *(
                 client.publish(
                     self.topics.value(self.line.name, key),
-                    encode(sample, robot=robot_of(self.line.info, key), quality=OFFLINE),
+                    payload,
                     qos=self.settings.qos,
                     retain=True,
                     timeout=2.0,
                 )
-                for key, sample in self._sent.items()
+                for key, payload in messages
             ),
             return_exceptions=True,
         )
