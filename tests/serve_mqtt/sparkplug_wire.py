@@ -51,6 +51,7 @@ class Metric:
     timestamp: int | None = None
     datatype: int | None = None
     is_null: bool = False
+    is_historical: bool = False
     value: Any = None
     properties: dict[str, Any] = field(default_factory=dict)
 
@@ -85,6 +86,8 @@ def _metric(data: bytes) -> Metric:
             metric.timestamp = value
         elif number == 4:
             metric.datatype = value
+        elif number == 5:
+            metric.is_historical = bool(value)
         elif number == 7:
             metric.is_null = bool(value)
         elif number == 9:

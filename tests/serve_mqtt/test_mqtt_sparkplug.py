@@ -305,3 +305,44 @@ def test_a_dcmd_stop_never_waits_behind_another_command(broker: Broker) -> None:
         task.cancel()
 
     asyncio.run(main())
+
+
+def test_changes_while_the_broker_is_away_come_as_historical_after_the_birth(
+    broker: Broker,
+) -> None:
+    async def main() -> None:
+        async with LineServer(_config(broker, rate=1000, reconnect_max=0.5)) as server:
+            node: Any = server.faces["mqtt"].sparkplug  # type: ignore[attr-defined]
+            line = server.lines["cell1"]
+            line.model.set("test/counter", 0)  # declared by a birth before the broker goes
+            await until(lambda: node.client is not None and "cell1" in node.session.born)
+            await until(lambda: node.session.declared("cell1", _counter(0)))
+            broker.stop()
+            await until(lambda: node.client is None)
+            for k in range(1, 6):
+                line.model.set("test/counter", k)
+                await asyncio.sleep(0.1)
+            await until(lambda: len(node.devices["cell1"].history) >= 5)
+            broker.start()
+            host, task = await _host(broker)
+            await until(lambda: host.of("DBIRTH", "cell1") != [], 30)
+            await until(lambda: any(
+                m.is_historical for p in host.of("DDATA", "cell1") for m in p.metrics
+            ))  # fmt: skip
+            task.cancel()
+        birth = _by_name(host.of("DBIRTH", "cell1")[0])
+        assert birth["test/counter"].value == 5  # the birth: the current state
+        alias = birth["test/counter"].alias
+        history = [m for p in host.of("DDATA", "cell1") for m in p.metrics if m.alias == alias]
+        assert all(m.is_historical for m in history)
+        assert [m.value for m in history] == [1, 2, 3, 4, 5]  # in order, each as it was
+        times = [m.timestamp for m in history]
+        assert times == sorted(times)
+
+    asyncio.run(main())
+
+
+def _counter(value: int) -> Any:
+    from robostar.serve.faces.mqtt.sparkplug.session import Metric
+
+    return Metric("test/counter", value, 0.0)

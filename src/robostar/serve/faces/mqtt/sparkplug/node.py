@@ -17,6 +17,7 @@ import contextlib
 import json
 import logging
 import time
+from collections import deque
 from typing import TYPE_CHECKING, Any
 
 import aiomqtt
@@ -88,6 +89,8 @@ class _Device:
         self.wake = asyncio.Event()
         self.commands: asyncio.Queue[tuple[str, bytes]] = asyncio.Queue(settings.max_pending)
         self.stops: asyncio.Queue[tuple[str, bytes]] = asyncio.Queue(settings.max_pending)
+        self.history: deque[Metric] = deque(maxlen=settings.buffer_rows)
+        """Changes while the broker was away (the oldest go first past ``buffer_rows``)."""
         """The stops' own lane (``estop``, ``stop_job``): never behind another command."""
 
 
@@ -111,6 +114,8 @@ class SparkplugNode:
         """The connection, once the node is born on it (None: births and data wait)."""
         self.births = 0
         self.published = 0
+        self.connected = False
+        """An MQTT connection is up (the node may still wait for its host, or be born)."""
         self.death = b""
         """The NDEATH of the current connection (its last will; said by a clean stop too)."""
 
@@ -122,6 +127,7 @@ class SparkplugNode:
 
     def _lost(self) -> None:
         self.client = None
+        self.connected = False
 
     async def say_death(self) -> None:
         """A clean stop: the NDEATH the will would have said (a clean disconnect sends none)."""
@@ -142,6 +148,7 @@ class SparkplugNode:
         )
 
     async def _serve(self, client: aiomqtt.Client) -> None:
+        self.connected = True
         host = self.sparkplug.primary_host
         if host is not None:
             await client.subscribe(SparkplugTopics.state(host), qos=1)
@@ -195,6 +202,11 @@ class SparkplugNode:
             self.topics.of_device("DBIRTH", name), self.session.device_birth(name, metrics), qos=0
         )
         self.births += 1
+        while device.history:  # what waited, in order, after the birth gave the current state
+            batch = [device.history.popleft() for _ in range(min(500, len(device.history)))]
+            payload = self.session.historical_data(name, batch)
+            if payload is not None:
+                await self._publish(client, self.topics.of_device("DDATA", name), payload)
 
     # -- the data ----------------------------------------------------------------------------
     async def pump(self, name: str) -> None:
@@ -224,9 +236,17 @@ class SparkplugNode:
 
     async def _send_due(self, name: str, device: _Device) -> None:
         client = self.client
-        if client is None:
-            return  # the next birth carries the current state
         line = device.line
+        if client is None:
+            if self.connected:
+                return  # being born: the changes wait in the reporter, then go out as DDATA
+            # Store and forward: once the node has been born, what changes while the broker is
+            # away is kept, and sent as historical after the next birth (the current state).
+            due = device.reporter.due(time.monotonic())
+            if self.births and line.up:
+                for key, sample in due:
+                    device.history.extend(line_metrics(line, key, sample))
+            return
         born = name in self.session.born
         if not line.up:
             if born:

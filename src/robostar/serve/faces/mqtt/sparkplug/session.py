@@ -231,6 +231,31 @@ class NodeSession:
             self._sent[key] = (metric.value, metric.quality)
         return payload.SerializeToString()
 
+    def declared(self, device: str, metric: Metric) -> bool:
+        """Whether a birth of ``device`` declared ``metric`` with a type its value fits."""
+        datatype = self._types.get((device, metric.name))
+        return datatype is not None and _fits(datatype, metric.value)
+
+    def historical_data(
+        self, device: str, metrics: Iterable[Metric], now: float | None = None
+    ) -> bytes | None:
+        """A DDATA of changes made while the broker was away, each flagged ``is_historical``
+        and timed when it was read, after the device's birth gave the current state. Metrics
+        the birth does not declare as such are left out (None: none left)."""
+        kept = [m for m in metrics if self.declared(device, m)]
+        if device not in self.born or not kept:
+            return None
+        at = time.time() if now is None else now
+        payload = pb.Payload(timestamp=_ms(at), seq=self._next_seq())
+        for metric in kept:
+            key = (device, metric.name)
+            out = payload.metrics.add(
+                alias=self._aliases[key], timestamp=_ms(metric.at), is_historical=True
+            )
+            _set_value(out, self._types[key], metric.value)
+            _property(out, QUALITY, pb.Int32, quality_code(metric.quality))
+        return payload.SerializeToString()
+
     def device_death(self, device: str, now: float | None = None) -> bytes:
         self.born.discard(device)
         at = time.time() if now is None else now
