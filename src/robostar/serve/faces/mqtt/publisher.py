@@ -269,12 +269,10 @@ class ValuePublisher:
         for contact, on in enumerate(contacts):
             if last is not None and contact < len(last) and last[contact] == on:
                 continue
-            await client.publish(
+            await self._publish_while_connected(
+                client,
                 self.topics.value(self.line.name, f"{key}/{contact}"),
                 encode(Sample(on, sample.at, sample.quality)),
-                qos=self.settings.qos,
-                retain=True,
-                timeout=self.settings.publish_timeout,
             )
             self.published += 1
 
