@@ -21,6 +21,7 @@ test: $(STAMP)
 # The clients' methods are written from the plans in client/surface.py (a test fails when stale).
 generate: $(STAMP)
 	$(BIN)/python tools/generate_faces.py
+	$(BIN)/python -m pip install --quiet grpcio-tools && $(BIN)/python tools/generate_sparkplug.py
 
 lint: $(STAMP)
 	$(BIN)/ruff check src tests bench reliability tools

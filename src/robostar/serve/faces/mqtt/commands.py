@@ -14,13 +14,23 @@ from collections.abc import Callable, Mapping
 from typing import Any
 
 from robostar.commands.base import Command
-from robostar.commands.control import EmergencyStop, SetSpeed, StartJob, StopJob
+from robostar.commands.control import EmergencyStop, ResetAlarms, SetSpeed, StartJob, StopJob
 from robostar.commands.io import SetOutput
-from robostar.commands.job import Servo
+from robostar.commands.job import SelectJob, Servo, SetJobMode
+from robostar.commands.motion import Home
 from robostar.commands.variables import WriteGlobalFloat, WriteGlobalInt
 from robostar.errors import UsageError
+from robostar.types import JobMode
 
-__all__ = ["COMMANDS", "ESTOP", "build_command", "make_command", "read_params"]
+__all__ = [
+    "COMMANDS",
+    "ESTOP",
+    "build_command",
+    "build_commands",
+    "make_command",
+    "make_commands",
+    "read_params",
+]
 
 ESTOP = "estop"
 
@@ -39,6 +49,20 @@ def _float(params: Mapping[str, Any], name: str) -> float:
     return float(value)
 
 
+def _text(params: Mapping[str, Any], name: str) -> str:
+    value = params.get(name)
+    if not isinstance(value, str) or not value:
+        raise UsageError(f'{name}: expected a name such as "MAIN.JOB", not {value!r}')
+    return value
+
+
+def _mode(params: Mapping[str, Any]) -> JobMode:
+    value = params.get("mode")
+    if value not in ("auto", "step"):
+        raise UsageError(f'mode: expected "auto" or "step", not {value!r}')
+    return JobMode.STEP if value == "step" else JobMode.AUTO
+
+
 def _bool(params: Mapping[str, Any], name: str) -> bool:
     value = params.get(name)
     if not isinstance(value, bool):
@@ -46,17 +70,27 @@ def _bool(params: Mapping[str, Any], name: str) -> bool:
     return value
 
 
-COMMANDS: dict[str, Callable[[Mapping[str, Any]], Command[Any]]] = {
-    "servo": lambda p: Servo(_int(p, "channel"), _bool(p, "on")),
-    "start_job": lambda p: StartJob(_int(p, "channel")),
-    "stop_job": lambda p: StopJob(_int(p, "channel")),
-    "speed": lambda p: SetSpeed(_int(p, "channel"), _int(p, "value")),
-    "output": lambda p: SetOutput(_int(p, "port"), _int(p, "contact"), _bool(p, "on")),
-    "global_int": lambda p: WriteGlobalInt(_int(p, "index"), _int(p, "value")),
-    "global_float": lambda p: WriteGlobalFloat(_int(p, "index"), _float(p, "value")),
-    ESTOP: lambda p: EmergencyStop(),
+COMMANDS: dict[str, Callable[[Mapping[str, Any]], tuple[Command[Any], ...]]] = {
+    "servo": lambda p: (Servo(_int(p, "channel"), _bool(p, "on")),),
+    "home": lambda p: (Home(_int(p, "channel")),),
+    "select_job": lambda p: (SelectJob(_int(p, "channel"), _text(p, "file")),),
+    "job_mode": lambda p: (SetJobMode(_int(p, "channel"), _mode(p)),),
+    "start_job": lambda p: (StartJob(_int(p, "channel")),),
+    # One step of the selected job: step mode, then start (the controller runs one step).
+    "step_job": lambda p: (
+        SetJobMode(_int(p, "channel"), JobMode.STEP),
+        StartJob(_int(p, "channel")),
+    ),
+    "stop_job": lambda p: (StopJob(_int(p, "channel")),),
+    "reset_alarms": lambda p: (ResetAlarms(),),
+    "speed": lambda p: (SetSpeed(_int(p, "channel"), _int(p, "value")),),
+    "output": lambda p: (SetOutput(_int(p, "port"), _int(p, "contact"), _bool(p, "on")),),
+    "global_int": lambda p: (WriteGlobalInt(_int(p, "index"), _int(p, "value")),),
+    "global_float": lambda p: (WriteGlobalFloat(_int(p, "index"), _float(p, "value")),),
+    ESTOP: lambda p: (EmergencyStop(),),
 }
-"""Every command the face can take, by topic name (the allowlist picks among them)."""
+"""Every command the face can take, by topic name (the allowlist picks among them): each is
+the robostar commands it runs, in order (``step_job`` is two)."""
 
 
 def read_params(payload: bytes) -> dict[str, Any]:
@@ -78,16 +112,26 @@ def read_params(payload: bytes) -> dict[str, Any]:
     return params
 
 
-def make_command(name: str, params: Mapping[str, Any]) -> Command[Any]:
-    """The command, its parameters' types checked (UsageError), their ranges not yet."""
+def make_commands(name: str, params: Mapping[str, Any]) -> tuple[Command[Any], ...]:
+    """The commands, their parameters' types checked (UsageError), their ranges not yet."""
     make = COMMANDS.get(name)
     if make is None:
         raise UsageError(f"unknown command {name!r} (commands: {', '.join(COMMANDS)})")
     return make(params)
 
 
+def make_command(name: str, params: Mapping[str, Any]) -> Command[Any]:
+    """The last (for all but ``step_job`` the only) command of :func:`make_commands`."""
+    return make_commands(name, params)[-1]
+
+
+def build_commands(name: str, params: Mapping[str, Any]) -> tuple[Command[Any], ...]:
+    """The commands; UsageError (or FieldError) naming what is wrong, before anything is sent."""
+    commands = make_commands(name, params)
+    for command in commands:
+        command.encode()  # every field's range, as the wire would refuse it
+    return commands
+
+
 def build_command(name: str, params: Mapping[str, Any]) -> Command[Any]:
-    """The command; UsageError (or FieldError) naming what is wrong, before anything is sent."""
-    command = make_command(name, params)
-    command.encode()  # every field's range, as the wire would refuse it
-    return command
+    return build_commands(name, params)[-1]

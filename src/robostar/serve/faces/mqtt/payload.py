@@ -5,19 +5,43 @@ from __future__ import annotations
 import json
 from typing import Any
 
+from robostar.serve.faces.mqtt.leaves import leaves
 from robostar.serve.jsonable import jsonable
 from robostar.serve.model import Sample
+from robostar.types import Position, RobotType
 
-__all__ = ["encode", "within_deadband"]
+__all__ = ["OFFLINE", "encode", "named_axes", "within_deadband"]
+
+OFFLINE = "offline"
+"""The quality the retained values say after a clean stop: no one vouches for them any more."""
 
 
-def encode(sample: Sample, *, historical: bool = False) -> bytes:
+def named_axes(position: Position, robot: RobotType | None = None) -> dict[str, Any]:
+    """A position as named values with units: ``{"x": {"value": 250.0, "unit": "mm"}, ...,
+    "arm": "right"}`` (joint angles ``j1``.., pulses ``p1``..)."""
+    out: dict[str, Any] = {}
+    for leaf in leaves(position, robot):
+        unit = leaf.unit
+        out[leaf.name] = leaf.value if unit is None else {"value": leaf.value, "unit": unit}
+    return out
+
+
+def encode(
+    sample: Sample,
+    *,
+    historical: bool = False,
+    robot: RobotType | None = None,
+    quality: str | None = None,
+) -> bytes:
     """``{"value": ..., "ts": <unix seconds>, "quality": "good"|"stale"|"line down"}``, with
-    ``"historical": true`` for a change replayed from the store-and-forward buffer."""
+    ``"historical": true`` for a change replayed from the store-and-forward buffer. A position's
+    axes are named, with units (:func:`named_axes`, ``robot`` the channel's robot type);
+    ``quality`` says another quality than the sample's (``offline``)."""
+    value = sample.value
     body: dict[str, Any] = {
-        "value": jsonable(sample.value),
+        "value": named_axes(value, robot) if isinstance(value, Position) else jsonable(value),
         "ts": round(sample.at, 3),
-        "quality": sample.quality.value,
+        "quality": quality or sample.quality.value,
     }
     if historical:
         body["historical"] = True

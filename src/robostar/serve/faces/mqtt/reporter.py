@@ -60,6 +60,11 @@ class Reporter:
             return None
         return self._bucket.next_at(now)
 
+    def mark_sent(self, key: str, sample: Sample) -> None:
+        """``sample`` went out by another way (a birth): not to be sent again unless it changes."""
+        self._last[key] = (sample.value, sample.quality)
+        self._held.pop(key, None)
+
     def forget(self) -> None:
         """After a reconnect everything is published again from the snapshot."""
         self._last.clear()
