@@ -154,8 +154,13 @@ def test_ctrl_c_at_any_moment_never_breaks_a_shared_clients_lock() -> None:
                     errors.append(exc)
                     return
 
+        go = threading.Event()
+
         def interrupter() -> None:
             rng = random.Random(7)
+            # not before the main thread is inside its try: an interrupt that landed while it
+            # still started the threads would end the test run itself, not the call under test
+            go.wait()
             for _ in range(600):
                 time.sleep(rng.uniform(0.0, 0.002))
                 _thread.interrupt_main()
@@ -175,6 +180,7 @@ def test_ctrl_c_at_any_moment_never_breaks_a_shared_clients_lock() -> None:
             thread.start()
         while not stop.is_set():
             try:
+                go.set()
                 calls()
             except KeyboardInterrupt:  # one landed between the loop's own bytecodes
                 interrupts += 1
