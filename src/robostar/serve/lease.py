@@ -5,12 +5,18 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Literal
 
 from robostar.errors import RobostarError
 
-__all__ = ["FACES", "Lease", "LeaseHeldError", "LeaseInfo", "Who"]
+__all__ = ["FACES", "Lease", "LeaseHeldError", "LeaseInfo", "LeaseMode", "Who"]
 
 FACES = frozenset(("n1", "api", "mqtt", "opcua", "web", "modbus", "cli"))
+
+LeaseMode = Literal["once", "hold"]
+"""How a state change takes a free lease: ``"once"`` for that command only (given back as it
+ends: a click, one MQTT command), ``"hold"`` to keep it past the command (a host program's
+sequence; it runs out after the lease's idle time unless renewed by the holder's commands)."""
 
 
 @dataclass(frozen=True)
@@ -26,11 +32,13 @@ class Who:
 
 @dataclass(frozen=True)
 class LeaseInfo:
-    """Who holds the lease, since when and until when (``time.time()`` values)."""
+    """Who holds the lease, since when and until when (``time.time()`` values); ``once``: taken
+    for one command only (a one-shot lease, given back as its command ends)."""
 
     who: Who
     since: float
     expires_at: float
+    once: bool = False
 
 
 class LeaseHeldError(RobostarError):
@@ -79,22 +87,27 @@ class Lease:
         info = self.holder
         return info is not None and info.who == who
 
-    def acquire(self, who: Who, ttl: float | None = None) -> LeaseInfo:
-        """Take the lease (or renew it if ``who`` holds it); LeaseHeldError if another does."""
+    def acquire(self, who: Who, ttl: float | None = None, *, once: bool = False) -> LeaseInfo:
+        """Take the lease (or renew it if ``who`` holds it); LeaseHeldError if another does.
+
+        ``once``: for one command (see :class:`~robostar.serve.lease_gate.LeaseGate`); a lease
+        ``who`` already holds to keep stays kept, and an explicit take keeps a one-shot one."""
         info = self.holder
         now = self._clock()
         if info is not None and info.who != who:
             raise LeaseHeldError(self.line, info)
         since = info.since if info is not None else now
-        self._info = LeaseInfo(who, since, now + (self.ttl if ttl is None else ttl))
+        once = once and (info is None or info.once)
+        self._info = LeaseInfo(who, since, now + (self.ttl if ttl is None else ttl), once)
         return self._info
 
     def renew(self, who: Who, ttl: float | None = None) -> LeaseInfo:
-        """Push the expiry forward; LeaseHeldError if ``who`` does not hold the lease."""
+        """Push the expiry forward (kept as it was taken: once or to hold); LeaseHeldError if
+        ``who`` does not hold the lease."""
         info = self.holder
         if info is None or info.who != who:
             raise LeaseHeldError(self.line, info)
-        return self.acquire(who, ttl)
+        return self.acquire(who, ttl, once=info.once)
 
     def release(self, who: Who) -> bool:
         """Give the lease up; False if ``who`` did not hold it."""

@@ -76,7 +76,8 @@ class N1Backend(Backend):
             return
         try:
             if command.CHANGES_STATE:
-                result = await self.line.execute(command, who=who, implicit_lease=True)
+                # "hold": a host program writes in sequences, and keeps control between them
+                result = await self.line.execute(command, who=who, lease="hold")
             else:
                 result = await self.line.read(command, who=who, max_age=self.max_age)
         except ControllerError as exc:
