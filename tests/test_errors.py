@@ -11,6 +11,7 @@ import robostar.errors as errors
 from robostar.errors import (
     AlarmRaisedError,
     AnswerTooLongError,
+    ControlHeldError,
     ControllerError,
     FieldError,
     FrameError,
@@ -48,6 +49,7 @@ EXPECTED_PARENT: dict[type[Exception], type[Exception]] = {
     ControllerError: RobostarError,
     RejectedError: ControllerError,
     FunctionFailedError: ControllerError,
+    ControlHeldError: FunctionFailedError,
     NotSupportedError: ControllerError,
     LineError: RobostarError,
     ReplyTimeoutError: LineError,

@@ -9,7 +9,7 @@ from typing import Literal
 
 from robostar.errors import RobostarError
 
-__all__ = ["FACES", "Lease", "LeaseHeldError", "LeaseInfo", "LeaseMode", "Who"]
+__all__ = ["FACES", "Lease", "LeaseHeldError", "LeaseInfo", "LeaseMode", "Who", "utc_clock"]
 
 FACES = frozenset(("n1", "api", "mqtt", "opcua", "web", "modbus", "cli"))
 
@@ -41,6 +41,11 @@ class LeaseInfo:
     once: bool = False
 
 
+def utc_clock(info: LeaseInfo) -> str:
+    """When ``info``'s lease runs out, as a wall clock a person compares with theirs."""
+    return time.strftime("%H:%M:%S UTC", time.gmtime(info.expires_at))
+
+
 class LeaseHeldError(RobostarError):
     """The caller does not hold the controller's lease: another consumer does (the message
     names the holder), or nobody does (``holder`` None: the caller must take it first)."""
@@ -53,8 +58,8 @@ class LeaseHeldError(RobostarError):
         else:
             left = max(0.0, holder.expires_at - time.time())
             message = (
-                f"line {line}: control is held by {holder.who}"
-                f" (expires in {left:.0f} s unless renewed)"
+                f"line {line}: control is held by {holder.who} until {utc_clock(holder)}"
+                f" (in {left:.0f} s unless renewed)"
             )
         super().__init__(message)
         self.line = line
