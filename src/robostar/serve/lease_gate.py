@@ -9,11 +9,17 @@ from collections.abc import Callable
 from typing import Any
 
 from robostar.commands.base import Command
+from robostar.commands.variables import WriteGlobalFloat, WriteGlobalInt, WriteGlobalPoint
 from robostar.errors import RobostarError
 from robostar.serve.lease import Lease, LeaseHeldError, LeaseInfo, LeaseMode, Who
 from robostar.serve.line_queue import STOPS
 
-__all__ = ["LeaseGate", "LeaseLostError"]
+__all__ = ["SCOPE_COMMANDS", "LeaseGate", "LeaseLostError"]
+
+SCOPE_COMMANDS: dict[str, tuple[type[Command[Any]], ...]] = {
+    "globals": (WriteGlobalInt, WriteGlobalFloat, WriteGlobalPoint),
+}
+"""The state changes of each scope a line may share (its config's ``shared``)."""
 
 
 class LeaseLostError(LeaseHeldError):
@@ -43,11 +49,19 @@ class LeaseGate:
     or not, unless a jog of its holder still runs (a jog start keeps it until its stop): so a
     single command from a face never locks a host program out for the lease's idle time."""
 
-    def __init__(self, line: str, lease: Lease) -> None:
+    def __init__(self, line: str, lease: Lease, shared: frozenset[str] = frozenset()) -> None:
         self.line = line
         self.lease = lease
+        self._shared = tuple(kind for scope in shared for kind in SCOPE_COMMANDS[scope])
         self._once_running: Counter[Who] = Counter()
         """One-shot commands admitted and not yet ended, by requester."""
+
+    def needs_lease(self, command: Command[Any]) -> bool:
+        """Whether ``command`` needs its requester to hold the lease: a state change, not a
+        stop (anyone may stop a robot), not in a scope the line shares (its ``shared``)."""
+        if not command.CHANGES_STATE or isinstance(command, STOPS):
+            return False
+        return not isinstance(command, self._shared)
 
     def admit(self, who: Who, *, mode: LeaseMode | None) -> bool:
         """As a state change is queued: renew ``who``'s lease, or take a free one for this
@@ -85,7 +99,7 @@ class LeaseGate:
     def refusal_at_send(self, command: Command[Any], who: Who | None) -> LeaseLostError | None:
         """Just before sending: the refusal of ``command`` if it needs ``who``'s lease and
         ``who`` no longer holds it, else None."""
-        if who is None or not command.CHANGES_STATE or isinstance(command, STOPS):
+        if who is None or not self.needs_lease(command):
             return None
         if self.lease.held_by(who):
             return None

@@ -140,7 +140,7 @@ class Line:
             channels=self.channels,
             recent=lambda command, age: self.feed.answer(command, age) is not None,
         )
-        self.gate = LeaseGate(self.name, self.lease)
+        self.gate = LeaseGate(self.name, self.lease, config.shared)
         self.jogs = JogGuard(self._send_jog_stop, self.record, self._takes_requests)
         self.lease.on_lost.append(self.jogs.lease_lost)
         if config.max_age:
@@ -226,7 +226,8 @@ class Line:
         if not is_stop:
             try:
                 self.audit.ready()  # nothing moves that the log cannot record (stops do)
-                once = self.gate.admit(who, mode=lease)
+                if self.gate.needs_lease(command):  # not a write the line shares
+                    once = self.gate.admit(who, mode=lease)
             except RobostarError as exc:
                 self.record(command, who, f"refused: {exc}")
                 raise
