@@ -9,7 +9,16 @@ from typing import Literal
 
 from robostar.errors import RobostarError
 
-__all__ = ["FACES", "Lease", "LeaseHeldError", "LeaseInfo", "LeaseMode", "Who", "utc_clock"]
+__all__ = [
+    "FACES",
+    "Lease",
+    "LeaseHeldError",
+    "LeaseInfo",
+    "LeaseMode",
+    "LeaseState",
+    "Who",
+    "utc_clock",
+]
 
 FACES = frozenset(("n1", "api", "mqtt", "opcua", "web", "modbus", "cli"))
 
@@ -39,6 +48,40 @@ class LeaseInfo:
     since: float
     expires_at: float
     once: bool = False
+
+
+@dataclass(frozen=True)
+class LeaseState:
+    """A line's control as faces show it, taken at one instant: free (``holder`` None), or
+    held by ``holder`` (its name) through ``face`` since ``since`` until ``until`` (wall clock,
+    ``time.time()``) = ``until_monotonic`` (``time.monotonic()``, for timers that must not jump
+    with the clock), ``left`` seconds from the instant taken; ``once``: a one-shot lease."""
+
+    line: str
+    holder: str | None = None
+    face: str | None = None
+    since: float | None = None
+    until: float | None = None
+    until_monotonic: float | None = None
+    left: float | None = None
+    once: bool = False
+
+    @property
+    def free(self) -> bool:
+        return self.holder is None
+
+    def as_dict(self) -> dict[str, object]:
+        """For a JSON answer or an event."""
+        return {
+            "line": self.line,
+            "free": self.free,
+            "holder": self.holder,
+            "face": self.face,
+            "since": self.since,
+            "until": self.until,
+            "left": self.left,
+            "once": self.once,
+        }
 
 
 def utc_clock(info: LeaseInfo) -> str:
@@ -87,6 +130,23 @@ class Lease:
             self._lost(info.who)
             return None
         return info
+
+    def state(self) -> LeaseState:
+        """Who holds the lease now, and until when (both clocks)."""
+        info = self.holder
+        if info is None:
+            return LeaseState(self.line)
+        left = max(0.0, info.expires_at - self._clock())
+        return LeaseState(
+            self.line,
+            info.who.name,
+            info.who.face,
+            info.since,
+            info.expires_at,
+            time.monotonic() + left,
+            left,
+            info.once,
+        )
 
     def held_by(self, who: Who) -> bool:
         info = self.holder

@@ -37,7 +37,15 @@ from robostar.errors import (
 from robostar.serve.audit import AuditLog
 from robostar.serve.config import LineConfig
 from robostar.serve.jog_guard import JogGuard
-from robostar.serve.lease import Lease, LeaseMode, Who
+from robostar.serve.lease import (
+    Lease,
+    LeaseHeldError,
+    LeaseInfo,
+    LeaseMode,
+    LeaseState,
+    Who,
+    utc_clock,
+)
 from robostar.serve.lease_gate import LeaseGate, LeaseLostError
 from robostar.serve.line_errors import (
     AbortedByStopError,
@@ -238,6 +246,30 @@ class Line:
                 self.gate.ended(who, jogging=self._jogging)
             elif is_stop:
                 self.gate.settle(self._jogging)  # a stop may have ended a one-shot jog
+
+    # -- control (the lease), for faces ------------------------------------------------------
+    def control(self) -> LeaseState:
+        """Who holds this line's control now and until when (a face shows it on every page)."""
+        return self.lease.state()
+
+    def take_control(self, who: Who, seconds: float | None = None) -> LeaseInfo:
+        """``who`` takes control (a free lease, kept past its commands, for ``seconds`` or the
+        lease's idle time, renewed by its writes), or renews it; audited. LeaseHeldError
+        when another holds it. Faces check the role first (an operator, at least)."""
+        what = "lease renew" if self.lease.held_by(who) else "lease take"
+        try:
+            info = self.lease.acquire(who, seconds)
+        except LeaseHeldError as exc:
+            self.record(what, who, f"refused: {exc}")
+            raise
+        self.record(what, who, f"ok: until {utc_clock(info)}")
+        return info
+
+    def release_control(self, who: Who) -> bool:
+        """``who`` gives control back (only its holder can); audited. False if not held."""
+        released = self.lease.release(who)
+        self.record("lease release", who, "ok" if released else "not held: nothing released")
+        return released
 
     def _jogging(self, who: Who) -> bool:
         return who in self.jogs.jogs.values()
