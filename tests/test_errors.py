@@ -16,6 +16,7 @@ import robostar.errors as errors
 from robostar.errors import (
     AlarmRaisedError,
     AnswerTooLongError,
+    ControlHeldError,
     ControllerError,
     FieldError,
     FrameError,
@@ -53,6 +54,7 @@ EXPECTED_PARENT: dict[type[Exception], type[Exception]] = {
     ControllerError: RobostarError,
     RejectedError: ControllerError,
     FunctionFailedError: ControllerError,
+    ControlHeldError: FunctionFailedError,
     NotSupportedError: ControllerError,
     LineError: RobostarError,
     ReplyTimeoutError: LineError,

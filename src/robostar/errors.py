@@ -15,6 +15,7 @@ Every error robostar raises is a :class:`RobostarError`. The tree splits errors 
     ├── ControllerError                     the controller answered with an error flag
     │   ├── RejectedError         (0x31)    the packet was not understood
     │   ├── FunctionFailedError   (0x32)    understood, but cannot be done now (KD reason)
+    │   │   └── ControlHeldError              a line server's refusal: another holds control
     │   └── NotSupportedError     (0x33)    not supported by this controller
     ├── LineError                           the line failed
     │   ├── ReplyTimeoutError (TimeoutError)    no answer in time
@@ -85,6 +86,7 @@ Internal signals, caught inside the package that raises them (never seen by a ca
 
 from __future__ import annotations
 
+import re
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # annotations only: errors.py stays the root of the import graph
@@ -93,6 +95,7 @@ if TYPE_CHECKING:  # annotations only: errors.py stays the root of the import gr
 __all__ = [
     "AlarmRaisedError",
     "AnswerTooLongError",
+    "ControlHeldError",
     "ControllerError",
     "FieldError",
     "FrameError",
@@ -221,6 +224,50 @@ class FunctionFailedError(ControllerError):
     describe = "the function failed (flag 0x32)"
 
 
+_CONTROL_HELD = re.compile(
+    r"line server: control of line (?P<line>\S+) is held by (?P<holder>.+) \((?P<face>[a-z0-9]+)\)"
+    r" until (?P<until>[^;]+)"
+)
+
+
+class ControlHeldError(FunctionFailedError):
+    """Flag 0x32 from a robostar line server, not from the controller: another consumer
+    (``holder``, through ``face``) holds control of ``line`` (its lease) until ``until`` (a
+    UTC wall clock); nothing was sent to the controller. Catch it to wait or to ask the holder;
+    the controller's own last error (KD) knows nothing of it."""
+
+    describe = "refused by the line server (flag 0x32)"
+
+    def __init__(self, command: str, reason: str | None = None):
+        found = _CONTROL_HELD.match(reason or "")
+        self.line = found["line"] if found else ""
+        self.holder = found["holder"] if found else ""
+        self.face = found["face"] if found else ""
+        self.until = found["until"] if found else ""
+        super().__init__(command, reason)
+
+    def _text(self) -> str:
+        return (
+            f"{self.command}: control of line {self.line} is held by {self.holder} ({self.face})"
+            f" until {self.until}: the line server refused it; nothing was sent to the controller"
+        )
+
+    @staticmethod
+    def text_for(line: str, holder: str, face: str, until: str) -> str:
+        """The KD text of a robostar line server (its N1 face, ``serve://``) refusing a state
+        change because ``holder`` (through ``face``) holds control of ``line`` until ``until``:
+        what this error is read from. A controller never says "line server:"."""
+        return (
+            f"line server: control of line {line} is held by {holder} ({face}) until {until};"
+            " nothing was sent"
+        )
+
+    @staticmethod
+    def said_in(reason: str | None) -> bool:
+        """Whether a KD text is a line server's "control is held" refusal."""
+        return bool(reason) and _CONTROL_HELD.match(reason or "") is not None
+
+
 class NotSupportedError(ControllerError):
     """Flag 0x33: the controller does not support this function."""
 
@@ -322,7 +369,7 @@ def error_for_flag(flag: int, command: str, reason: str | None = None) -> Contro
     if flag == _FLAG_REJECTED:
         cls = RejectedError
     elif flag == _FLAG_FAILED:
-        cls = FunctionFailedError
+        cls = ControlHeldError if ControlHeldError.said_in(reason) else FunctionFailedError
     elif flag == _FLAG_UNSUPPORTED:
         cls = NotSupportedError
     else:

@@ -91,13 +91,13 @@ def test_the_lease_has_one_holder_and_names_it(tmp_path: Path) -> None:
             line = server.lines["cell1"]
             with pytest.raises(LeaseHeldError):
                 await line.execute(SetSpeed(1, 10), who=ALICE)  # no implicit lease: refused
-            await line.execute(SetSpeed(1, 10), who=ALICE, implicit_lease=True)
+            await line.execute(SetSpeed(1, 10), who=ALICE, lease="hold")
             with pytest.raises(LeaseHeldError, match="alice"):
                 await line.execute(SetSpeed(1, 20), who=BOB, implicit_lease=True)
             # a stop needs no lease
             await line.execute(EmergencyStop(), who=BOB)
             assert line.lease.release(ALICE)
-            await line.execute(SetSpeed(1, 30), who=BOB, implicit_lease=True)
+            await line.execute(SetSpeed(1, 30), who=BOB, lease="hold")
             holder = line.lease.holder
             assert holder is not None and holder.who == BOB
 

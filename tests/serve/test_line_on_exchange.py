@@ -37,7 +37,7 @@ def test_observers_see_uploads_downloads_refusals_and_who_asked() -> None:
             line.on_exchange(failing)
             remove = line.on_exchange(lambda *exchange: seen.append(exchange))
             upload = UploadFile(1, "WELD.JOB", 1, JOB)
-            await line.execute(upload, who=ERIN, implicit_lease=True)
+            await line.execute(upload, who=ERIN, lease="hold")
             download = DownloadFile(1, "WELD.JOB", CoordSystem.ANGLE)
             content = await line.read(download, who=ERIN)
             unhomed = Move(1, MotionType.JOINT, CoordSystem.ANGLE, ((10.0, 20.0, 30.0, 0.0),))

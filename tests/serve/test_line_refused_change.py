@@ -36,7 +36,7 @@ def test_a_refused_move_refreshes_the_model_at_once(tmp_path: Path) -> None:
         line = Line(config, client_factory=sim.client, audit=audit)
         await line.start()
         try:
-            await line.execute(Home(1), who=ANN, implicit_lease=True)
+            await line.execute(Home(1), who=ANN, lease="hold")
             while not (await line.read(ReadStatus(), max_age=0))[0].origin:
                 await asyncio.sleep(0.02)
             await first_poll(line)

@@ -19,6 +19,7 @@ from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 from robostar.errors import (
+    ControlHeldError,
     ControllerError,
     FieldError,
     FunctionFailedError,
@@ -297,10 +298,21 @@ def next_step(reason: str | None) -> str | None:
 def _refusal(error: ControllerError, kind: str) -> Failure:
     code, reason = error.command, error.reason
     action = _ACTIONS.get(code, f"the {code} command")
-    action = action[0].upper() + action[1:]
     detail = f"Protocol: {code}, answer flag 0x{error.flag:02X}"
     if reason:
         detail += f"; KD reason: {reason}"
+    if isinstance(error, ControlHeldError):
+        # the line server's refusal, not the controller's: no controller recovery hints
+        message = (
+            f"Control of line {error.line} is held by {error.holder} ({error.face}) until"
+            f" {error.until}: the line server refused {action}; nothing was sent."
+        )
+        hint = (
+            f"Wait until it is given back, or ask {error.holder} to release control;"
+            " this is the line server's refusal, the controller has no error."
+        )
+        return Failure(EXIT_REFUSED, message, hint, kind, code, reason, detail)
+    action = action[0].upper() + action[1:]
     if isinstance(error, FunctionFailedError):
         why = f": {reason}" if reason else " (it gave no reason)"
         message = _sentence(f"{action} was refused by the controller{why}")

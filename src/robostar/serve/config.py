@@ -15,6 +15,7 @@ from robostar.transport.url import parse_url
 
 __all__ = [
     "FACE_NAMES",
+    "SHARED_SCOPES",
     "ConfigError",
     "LineConfig",
     "ServeConfig",
@@ -26,6 +27,10 @@ __all__ = [
 
 FACE_NAMES = frozenset(("n1", "api", "mqtt", "opcua", "web", "metrics", "modbus"))
 _NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_-]{0,31}$")
+SHARED_SCOPES = frozenset(("globals",))
+"""What a line may share beside its lease holder (``[lines.X] shared = [...]``): ``"globals"``,
+the global variable writes (GW) an MES makes beside the host program. Everything else (motion,
+jogs, jobs, servo, speed, outputs, files, points, parameters, alarm resets) needs the lease."""
 
 
 class ConfigError(UsageError):
@@ -54,6 +59,9 @@ class LineConfig:
     """Deprecated: no effect (reads are answered from the model only when a request asks)."""
     channels: dict[int, str] = field(default_factory=dict)
     robot: str | None = None
+    shared: frozenset[str] = frozenset()
+    """What any consumer may write without the lease, beside its holder (see
+    :data:`SHARED_SCOPES`); empty (the default): every state change needs the lease."""
 
     def __post_init__(self) -> None:
         where = f"lines.{self.name}"
@@ -81,6 +89,10 @@ class LineConfig:
         for number in self.channels:
             if not isinstance(number, int) or not 1 <= number <= 3:
                 raise ConfigError(f"{where}.channels: {number!r} is not a channel 1-3")
+        for scope in self.shared:
+            if scope not in SHARED_SCOPES:
+                known = ", ".join(sorted(SHARED_SCOPES))
+                raise ConfigError(f"{where}.shared: {scope!r} cannot be shared (only: {known})")
 
 
 @dataclass(frozen=True)
@@ -150,6 +162,7 @@ _LINE_KEYS = {
     "max_age": float,
     "channels": dict,
     "robot": str,
+    "shared": list,
 }
 
 
@@ -171,6 +184,8 @@ def _line(name: str, table: Any) -> LineConfig:
         raise ConfigError(f"{where}.url: missing")
     if "io_ports" in kwargs:
         kwargs["io_ports"] = tuple(kwargs["io_ports"])
+    if "shared" in kwargs:
+        kwargs["shared"] = frozenset(str(scope) for scope in kwargs["shared"])
     if "channels" in kwargs:
         channels: dict[int, str] = {}
         for number, label in kwargs["channels"].items():

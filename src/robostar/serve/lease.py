@@ -5,12 +5,27 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Literal
 
 from robostar.errors import RobostarError
 
-__all__ = ["FACES", "Lease", "LeaseHeldError", "LeaseInfo", "Who"]
+__all__ = [
+    "FACES",
+    "Lease",
+    "LeaseHeldError",
+    "LeaseInfo",
+    "LeaseMode",
+    "LeaseState",
+    "Who",
+    "utc_clock",
+]
 
 FACES = frozenset(("n1", "api", "mqtt", "opcua", "web", "modbus", "cli"))
+
+LeaseMode = Literal["once", "hold"]
+"""How a state change takes a free lease: ``"once"`` for that command only (given back as it
+ends: a click, one MQTT command), ``"hold"`` to keep it past the command (a host program's
+sequence; it runs out after the lease's idle time unless renewed by the holder's commands)."""
 
 
 @dataclass(frozen=True)
@@ -26,11 +41,52 @@ class Who:
 
 @dataclass(frozen=True)
 class LeaseInfo:
-    """Who holds the lease, since when and until when (``time.time()`` values)."""
+    """Who holds the lease, since when and until when (``time.time()`` values); ``once``: taken
+    for one command only (a one-shot lease, given back as its command ends)."""
 
     who: Who
     since: float
     expires_at: float
+    once: bool = False
+
+
+@dataclass(frozen=True)
+class LeaseState:
+    """A line's control as faces show it, taken at one instant: free (``holder`` None), or
+    held by ``holder`` (its name) through ``face`` since ``since`` until ``until`` (wall clock,
+    ``time.time()``) = ``until_monotonic`` (``time.monotonic()``, for timers that must not jump
+    with the clock), ``left`` seconds from the instant taken; ``once``: a one-shot lease."""
+
+    line: str
+    holder: str | None = None
+    face: str | None = None
+    since: float | None = None
+    until: float | None = None
+    until_monotonic: float | None = None
+    left: float | None = None
+    once: bool = False
+
+    @property
+    def free(self) -> bool:
+        return self.holder is None
+
+    def as_dict(self) -> dict[str, object]:
+        """For a JSON answer or an event."""
+        return {
+            "line": self.line,
+            "free": self.free,
+            "holder": self.holder,
+            "face": self.face,
+            "since": self.since,
+            "until": self.until,
+            "left": self.left,
+            "once": self.once,
+        }
+
+
+def utc_clock(info: LeaseInfo) -> str:
+    """When ``info``'s lease runs out, as a wall clock a person compares with theirs."""
+    return time.strftime("%H:%M:%S UTC", time.gmtime(info.expires_at))
 
 
 class LeaseHeldError(RobostarError):
@@ -45,8 +101,8 @@ class LeaseHeldError(RobostarError):
         else:
             left = max(0.0, holder.expires_at - time.time())
             message = (
-                f"line {line}: control is held by {holder.who}"
-                f" (expires in {left:.0f} s unless renewed)"
+                f"line {line}: control is held by {holder.who} until {utc_clock(holder)}"
+                f" (in {left:.0f} s unless renewed)"
             )
         super().__init__(message)
         self.line = line
@@ -75,26 +131,48 @@ class Lease:
             return None
         return info
 
+    def state(self) -> LeaseState:
+        """Who holds the lease now, and until when (both clocks)."""
+        info = self.holder
+        if info is None:
+            return LeaseState(self.line)
+        left = max(0.0, info.expires_at - self._clock())
+        return LeaseState(
+            self.line,
+            info.who.name,
+            info.who.face,
+            info.since,
+            info.expires_at,
+            time.monotonic() + left,
+            left,
+            info.once,
+        )
+
     def held_by(self, who: Who) -> bool:
         info = self.holder
         return info is not None and info.who == who
 
-    def acquire(self, who: Who, ttl: float | None = None) -> LeaseInfo:
-        """Take the lease (or renew it if ``who`` holds it); LeaseHeldError if another does."""
+    def acquire(self, who: Who, ttl: float | None = None, *, once: bool = False) -> LeaseInfo:
+        """Take the lease (or renew it if ``who`` holds it); LeaseHeldError if another does.
+
+        ``once``: for one command (see :class:`~robostar.serve.lease_gate.LeaseGate`); a lease
+        ``who`` already holds to keep stays kept, and an explicit take keeps a one-shot one."""
         info = self.holder
         now = self._clock()
         if info is not None and info.who != who:
             raise LeaseHeldError(self.line, info)
         since = info.since if info is not None else now
-        self._info = LeaseInfo(who, since, now + (self.ttl if ttl is None else ttl))
+        once = once and (info is None or info.once)
+        self._info = LeaseInfo(who, since, now + (self.ttl if ttl is None else ttl), once)
         return self._info
 
     def renew(self, who: Who, ttl: float | None = None) -> LeaseInfo:
-        """Push the expiry forward; LeaseHeldError if ``who`` does not hold the lease."""
+        """Push the expiry forward (kept as it was taken: once or to hold); LeaseHeldError if
+        ``who`` does not hold the lease."""
         info = self.holder
         if info is None or info.who != who:
             raise LeaseHeldError(self.line, info)
-        return self.acquire(who, ttl)
+        return self.acquire(who, ttl, once=info.once)
 
     def release(self, who: Who) -> bool:
         """Give the lease up; False if ``who`` did not hold it."""

@@ -37,7 +37,15 @@ from robostar.errors import (
 from robostar.serve.audit import AuditLog
 from robostar.serve.config import LineConfig
 from robostar.serve.jog_guard import JogGuard
-from robostar.serve.lease import Lease, Who
+from robostar.serve.lease import (
+    Lease,
+    LeaseHeldError,
+    LeaseInfo,
+    LeaseMode,
+    LeaseState,
+    Who,
+    utc_clock,
+)
 from robostar.serve.lease_gate import LeaseGate, LeaseLostError
 from robostar.serve.line_errors import (
     AbortedByStopError,
@@ -140,7 +148,7 @@ class Line:
             channels=self.channels,
             recent=lambda command, age: self.feed.answer(command, age) is not None,
         )
-        self.gate = LeaseGate(self.name, self.lease)
+        self.gate = LeaseGate(self.name, self.lease, config.shared)
         self.jogs = JogGuard(self._send_jog_stop, self.record, self._takes_requests)
         self.lease.on_lost.append(self.jogs.lease_lost)
         if config.max_age:
@@ -202,18 +210,72 @@ class Line:
         return self._queue.qsize() + (1 if self._current is not None else 0)
 
     # -- the public calls ------------------------------------------------------------------
-    async def execute(self, command: Command[R], *, who: Who, implicit_lease: bool = False) -> R:
-        """Run ``command`` for ``who`` through the queue (state changes need the lease)."""
+    async def execute(
+        self,
+        command: Command[R],
+        *,
+        who: Who,
+        implicit_lease: bool = False,
+        lease: LeaseMode | None = None,
+    ) -> R:
+        """Run ``command`` for ``who`` through the queue (state changes need the lease).
+
+        ``who`` holding the lease renews it. Else a free lease is taken: ``lease="once"`` (or
+        ``implicit_lease=True``, the faces' one-shot commands) for this command only, given
+        back as it ends (a jog start keeps it until the jog stops); ``lease="hold"`` to keep it
+        past the command (an N1 host program's sequence). Without either, a free lease is
+        refused (LeaseHeldError: take it first), as is one another holds."""
         if not command.CHANGES_STATE:
             return await self.read(command, who=who)
+        if lease is None and implicit_lease:
+            lease = "once"
         is_stop = isinstance(command, STOPS)
+        once = False
         if not is_stop:
             try:
                 self.audit.ready()  # nothing moves that the log cannot record (stops do)
-                self.gate.admit(who, implicit_lease=implicit_lease)
+                if self.gate.needs_lease(command):  # not a write the line shares
+                    once = self.gate.admit(who, mode=lease)
             except RobostarError as exc:
                 self.record(command, who, f"refused: {exc}")
                 raise
+        try:
+            return await self._carry_out(command, who, is_stop)
+        finally:
+            if once:
+                self.gate.ended(who, jogging=self._jogging)
+            elif is_stop:
+                self.gate.settle(self._jogging)  # a stop may have ended a one-shot jog
+
+    # -- control (the lease), for faces ------------------------------------------------------
+    def control(self) -> LeaseState:
+        """Who holds this line's control now and until when (a face shows it on every page)."""
+        return self.lease.state()
+
+    def take_control(self, who: Who, seconds: float | None = None) -> LeaseInfo:
+        """``who`` takes control (a free lease, kept past its commands, for ``seconds`` or the
+        lease's idle time, renewed by its writes), or renews it; audited. LeaseHeldError
+        when another holds it. Faces check the role first (an operator, at least)."""
+        what = "lease renew" if self.lease.held_by(who) else "lease take"
+        try:
+            info = self.lease.acquire(who, seconds)
+        except LeaseHeldError as exc:
+            self.record(what, who, f"refused: {exc}")
+            raise
+        self.record(what, who, f"ok: until {utc_clock(info)}")
+        return info
+
+    def release_control(self, who: Who) -> bool:
+        """``who`` gives control back (only its holder can); audited. False if not held."""
+        released = self.lease.release(who)
+        self.record("lease release", who, "ok" if released else "not held: nothing released")
+        return released
+
+    def _jogging(self, who: Who) -> bool:
+        return who in self.jogs.jogs.values()
+
+    async def _carry_out(self, command: Command[R], who: Who, is_stop: bool) -> R:
+        """:meth:`execute`'s part past the lease: queue, wait, audit, follow jogs."""
         priority = PRI_STOP if is_stop else PRI_WRITE
         if isinstance(command, JogContinue):
             priority = PRI_KEEPALIVE

@@ -12,7 +12,7 @@ import pytest
 from robostar.client.aio import AsyncClient
 from robostar.commands.control import SetSpeed
 from robostar.commands.files import UploadFile
-from robostar.errors import RobostarError
+from robostar.errors import ControlHeldError
 from robostar.serve import LineConfig, LineServer, ServeConfig
 
 BODY = ["MAIN", *[f"MOVJ P{i % 100 + 1:04d} V=50" for i in range(198)], "EOP"]
@@ -35,7 +35,7 @@ def test_an_upload_from_an_n1_session_without_the_lease_is_refused_before_its_li
             async with AsyncClient(url) as a, AsyncClient(url) as b:
                 await a.execute(SetSpeed(1, 50))  # host A takes the lease
                 b_sent: list[int] = []
-                with pytest.raises(RobostarError, match="control is held by n1:"):
+                with pytest.raises(ControlHeldError, match="control of line cell1 is held by n1:"):
                     await b._call(UploadFile(1, "B.JOB", 2, BODY), lambda n, t: b_sent.append(n))
                 a_sent: list[int] = []
                 await a._call(UploadFile(1, "A.JOB", 3, BODY), lambda n, t: a_sent.append(n))

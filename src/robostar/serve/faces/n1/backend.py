@@ -4,7 +4,9 @@ Each connection is its own N1 session (robostar.controller_role). Reads are answ
 when fresh; state changes go through the line's queue and lease: a connection takes the lease when
 it is free and keeps it while active (it expires after the lease's idle time, and is released when
 the connection closes). A request refused because another holds the lease answers flag 0x32, and KD
-then says who holds it. A state change whose outcome the line cannot tell (OutcomeUnknownError: it
+then says, as the line server's refusal, who holds it and until when (robostar's client raises
+ControlHeldError from it); a later session's KD tells the controller's text and that refusal
+apart. A state change whose outcome the line cannot tell (OutcomeUnknownError: it
 may have been carried out) ends its exchange with RST, as a controller does when it cannot answer,
 never with a failure flag: a host that retries on failure would send a write that may have run a
 second time.
@@ -19,13 +21,19 @@ from __future__ import annotations
 
 import asyncio
 import logging
+import time
 from typing import TYPE_CHECKING
 
 from robostar.commands.files import UploadFile
-from robostar.commands.system import ReadLastError
+from robostar.commands.system import MAX_TEXT, ReadLastError
 from robostar.controller_role import Backend, ControllerSession, Refusal, Request
-from robostar.errors import ControllerError, OutcomeUnknownError, RobostarError
-from robostar.serve.lease import LeaseHeldError, Who
+from robostar.errors import (
+    ControlHeldError,
+    ControllerError,
+    OutcomeUnknownError,
+    RobostarError,
+)
+from robostar.serve.lease import LeaseHeldError, Who, utc_clock
 from robostar.serve.line import Line
 
 if TYPE_CHECKING:
@@ -35,6 +43,8 @@ __all__ = ["N1Backend"]
 
 log = logging.getLogger("robostar.serve.n1")
 _FLAG_FAILED = 0x32
+RECENT_REFUSAL = 600.0
+"""Seconds a lease refusal is told beside the controller's text by a session's KD."""
 
 
 class N1Backend(Backend):
@@ -45,6 +55,8 @@ class N1Backend(Backend):
         self.max_age = max_age
         """None: reads are linearizable; else a model value this many seconds old answers."""
         self._tasks: set[asyncio.Task[None]] = set()
+        self.last_refusal: tuple[float, Who, str] | None = None
+        """The last lease refusal on this line: when (``time.time()``), to whom, its KD text."""
         self._abandoned: set[Request] = set()
         """Requests whose host gave them up before their task ran (see exchange_abandoned)."""
 
@@ -75,15 +87,18 @@ class N1Backend(Backend):
                 self.line.record(command, who, "cancelled, not sent: the host gave it up")
             return
         try:
-            if command.CHANGES_STATE:
-                result = await self.line.execute(command, who=who, implicit_lease=True)
+            if isinstance(command, ReadLastError):
+                result = await self._last_error(request)
+            elif command.CHANGES_STATE:
+                # "hold": a host program writes in sequences, and keeps control between them
+                result = await self.line.execute(command, who=who, lease="hold")
             else:
                 result = await self.line.read(command, who=who, max_age=self.max_age)
         except ControllerError as exc:
             self._refuse(request, exc.reason or str(exc), exc.flag or _FLAG_FAILED)
             return
         except LeaseHeldError as exc:
-            self._refuse(request, str(exc), _FLAG_FAILED)
+            self._refuse_held(request, who, exc)
             return
         except OutcomeUnknownError as exc:
             # not 0x32: "failed" would tell the host that nothing happened. A controller that
@@ -107,6 +122,35 @@ class N1Backend(Backend):
         if request.two_phase:
             request.finish()
 
+    def _refuse_held(self, request: Request, who: Who, error: LeaseHeldError) -> None:
+        """0x32 for a lease refusal, its KD text saying so as the server's (not the
+        controller's): the client reads it back as ControlHeldError (see robostar.errors)."""
+        text = self._held_text(error)
+        self.last_refusal = (time.time(), who, text)
+        self._refuse(request, text, _FLAG_FAILED)
+
+    def _held_text(self, error: LeaseHeldError) -> str:
+        holder = error.holder
+        if holder is None:
+            return f"line server: {error}"
+        return ControlHeldError.text_for(
+            self.line.name, holder.who.name, holder.who.face, utc_clock(holder)
+        )
+
+    async def _last_error(self, request: Request) -> str:
+        """KD for a session with no refusal of its own (``robostar last-error`` opens a new
+        connection): the controller's text, and the server's last lease refusal on this line
+        when recent, each said as whose it is, so the controller's "no error" does not stand
+        alone after the server refused someone."""
+        text = await self.line.read(request.command, who=self.who(request.session))
+        refusal = self.last_refusal
+        if refusal is None or time.time() - refusal[0] > RECENT_REFUSAL:
+            return str(text)
+        at, who, said = refusal
+        clock = time.strftime("%H:%M:%S UTC", time.gmtime(at))
+        both = f"controller: {text or 'no error'}; at {clock} {who.name} was refused by the {said}"
+        return both[:MAX_TEXT]
+
     @staticmethod
     def _refuse(request: Request, reason: str, flag: int) -> None:
         if request.live:
@@ -120,11 +164,14 @@ class N1Backend(Backend):
         """Refuse an FB before its lines are sent when another consumer, another N1 session
         included, holds the lease."""
         holder = self.line.lease.holder
-        if holder is None or holder.who == self.who(session):
+        who = self.who(session)
+        if holder is None or holder.who == who:
             return  # free (the upload takes it when it is carried out), or this session's
         error = LeaseHeldError(self.line.name, holder)
-        self.line.record(command, self.who(session), f"refused: {error}")
-        raise Refusal(str(error), _FLAG_FAILED)
+        self.line.record(command, who, f"refused: {error}")
+        text = self._held_text(error)
+        self.last_refusal = (time.time(), who, text)
+        raise Refusal(text, _FLAG_FAILED)
 
     def exchange_abandoned(self, session: ControllerSession, request: Request) -> None:
         # nobody waits for its outcome now: a write of a host that moved on must not run,
