@@ -1,0 +1,203 @@
+"""The files page of one line: the listing per channel, a file's view and download, the point
+editor, the upload (preview, then confirm) and the backup of every file as a zip."""
+
+from __future__ import annotations
+
+import io
+import time
+import zipfile
+
+from starlette.requests import Request
+from starlette.responses import RedirectResponse, Response
+from starlette.routing import BaseRoute, Route
+
+from robostar.client.files import point_lines
+from robostar.commands.files import DownloadFile, ListFiles, UploadFile
+from robostar.errors import RobostarError
+from robostar.protocol.fields import FileName
+from robostar.serve.faces.web.auth import read_form
+from robostar.serve.faces.web.deps import Forbidden, deps_of
+from robostar.serve.faces.web.forms import (
+    coordinate,
+    file_name,
+    file_params,
+    file_text,
+    int_field,
+    steps,
+)
+from robostar.serve.faces.web.limits import MAX_UPLOAD, upload_too_large
+from robostar.serve.faces.web.views import channels
+from robostar.serve.users import Role
+from robostar.types import ArmForm, CoordSystem, FileRecord, JobFile, Point, PointFile
+
+__all__ = ["ROUTES"]
+
+
+async def files(request: Request) -> Response:
+    deps = deps_of(request)
+    line = deps.line_of(request)
+    channel = int_field(request.query_params.get("channel", "1"), "channel", 1, 3)
+    listing: tuple[FileRecord, ...] = ()
+    error = None
+    if not deps.account(request).may(Role.VIEWER):
+        # FD is a transfer too (up to 403 packets): not for a GET any page can fire
+        error = "Sign in to list the files: the list is read from the controller."
+    else:
+        try:
+            with deps.one_transfer(line):
+                listing = await line.read(ListFiles(channel, "*"))
+        except Forbidden as exc:
+            error = exc.message
+        except RobostarError as exc:
+            error = str(exc)
+    return deps.page(request, "files.html", line=line, channel=channel, files=listing, error=error)
+
+
+async def file_view(request: Request) -> Response:
+    deps = deps_of(request)
+    line = deps.line_of(request)
+    channel, name = file_params(request)  # a bad name is a 400 for anyone: nothing sent
+    deps.signed_in(request, line, "file view")
+    coords = CoordSystem.XY if request.query_params.get("coords") == "xy" else CoordSystem.ANGLE
+    with deps.one_transfer(line):
+        content = await line.read(DownloadFile(channel, name, coords))
+    return deps.page(
+        request,
+        "file.html",
+        line=line,
+        channel=channel,
+        name=str(name),
+        job=content if isinstance(content, JobFile) else None,
+        points=content if isinstance(content, PointFile) else None,
+        coords=coords.name.lower(),
+    )
+
+
+async def file_download(request: Request) -> Response:
+    deps = deps_of(request)
+    line = deps.line_of(request)
+    channel, name = file_params(request)  # a bad name is a 400 for anyone: nothing sent
+    deps.signed_in(request, line, "file download")
+    with deps.one_transfer(line):
+        content = await line.read(DownloadFile(channel, name, CoordSystem.ANGLE))
+    return Response(
+        file_text(content),
+        media_type="text/plain; charset=utf-8",
+        headers={"content-disposition": f'attachment; filename="{name}"'},
+    )
+
+
+def _axes_of(content: PointFile) -> int:
+    """How many axes a new point of this file has: as many as its other points."""
+    return max((len(p.axes) for p in content.points.values()), default=4)
+
+
+async def point_edit(request: Request) -> Response:
+    """The point table editor: one point of a PNT file changed, the file written back (FB)."""
+    deps = deps_of(request)
+    line = deps.line_of(request)
+    account = await deps.guard(request, Role.ENGINEER, line, "point edit")
+    channel, name = file_params(request)
+    form = await read_form(request)
+    if form.get("confirmed") != "yes":
+        raise Forbidden(428, "confirm the change of the point first")
+    if not name.is_points:
+        raise Forbidden(400, f"{name} is not a point file")
+    number = int_field(form.get("number"), "point", 0, 9999)
+    content = await line.read(DownloadFile(channel, name, CoordSystem.ANGLE), max_age=0)
+    if not isinstance(content, PointFile):
+        raise Forbidden(400, f"{name} did not download as a point table")
+    old = content.points.get(number)
+    count = len(old.axes) if old is not None else _axes_of(content)
+    axes = tuple(coordinate(form.get(f"axis{i}"), f"axis {i}") for i in range(1, count + 1))
+    arm = old.arm if old is not None else ArmForm.NONE
+    points = {**content.points, number: Point(axes, arm, True)}
+    records = await line.read(ListFiles(channel, "*"), max_age=0)
+    job_number = next((r.job_number for r in records if r.name == str(name)), 0)
+    lines = point_lines(points)
+    await deps.run(line, UploadFile(channel, name, job_number, lines), account)
+    return RedirectResponse(
+        f"/line/{line.name}/files/{channel}/{name}?saved={number}", status_code=303
+    )
+
+
+async def backup_zip(request: Request) -> Response:
+    deps = deps_of(request)
+    line = deps.line_of(request)
+    deps.signed_in(request, line, "backup")
+    buffer = io.BytesIO()
+    with deps.one_transfer(line), zipfile.ZipFile(buffer, "w", zipfile.ZIP_DEFLATED) as archive:
+        for channel in channels(line):
+            for record in await line.read(ListFiles(channel, "*")):
+                name = FileName.parse(record.name)
+                content = await line.read(DownloadFile(channel, name, CoordSystem.ANGLE))
+                archive.writestr(f"ch{channel}/{name}", file_text(content))
+    stamp = time.strftime("%Y%m%d-%H%M%S")
+    return Response(
+        buffer.getvalue(),
+        media_type="application/zip",
+        headers={"content-disposition": f'attachment; filename="{line.name}-{stamp}.zip"'},
+    )
+
+
+async def upload_preview(request: Request) -> Response:
+    deps = deps_of(request)
+    line = deps.line_of(request)
+    await deps.guard(request, Role.ENGINEER, line, "file upload")
+    form = await read_form(request)
+    channel = int_field(str(form.get("channel", "1")), "channel", 1, 3)
+    upload = form.get("file")
+    if upload is None or isinstance(upload, str):
+        raise Forbidden(400, "choose a file to upload")
+    raw = await upload.read(MAX_UPLOAD + 1)
+    if len(raw) > MAX_UPLOAD:
+        raise Forbidden(413, upload_too_large("the file"))
+    try:
+        text = raw.decode("ascii")
+    except UnicodeDecodeError:
+        raise Forbidden(400, "the controller holds ASCII text only") from None
+    name = file_name(str(form.get("name") or upload.filename or ""))
+    lines = steps(name, text)
+    command = UploadFile(
+        channel, name, int_field(str(form.get("job_number", "0")), "job", 0, 200), lines
+    )
+    command.encode()  # every line checked now: a bad one is refused before the preview
+    return deps.page(
+        request,
+        "upload.html",
+        line=line,
+        channel=channel,
+        name=str(name),
+        job_number=command.job_number,
+        lines=lines,
+        content=text,
+    )
+
+
+async def upload_confirm(request: Request) -> Response:
+    deps = deps_of(request)
+    line = deps.line_of(request)
+    account = await deps.guard(request, Role.ENGINEER, line, "file upload")
+    form = await read_form(request)
+    if form.get("confirmed") != "yes":
+        raise Forbidden(428, "confirm the upload on its preview page")
+    channel = int_field(str(form.get("channel", "1")), "channel", 1, 3)
+    name = file_name(str(form.get("name", "")))
+    job_number = int_field(str(form.get("job_number", "0")), "job", 0, 200)
+    content = str(form.get("content", ""))
+    if len(content) > MAX_UPLOAD:  # the preview's limit, for a confirm sent without one
+        raise Forbidden(413, upload_too_large("the content"))
+    lines = steps(name, content)
+    await deps.run(line, UploadFile(channel, name, job_number, lines), account)
+    return RedirectResponse(f"/line/{line.name}/files?channel={channel}", status_code=303)
+
+
+ROUTES: list[BaseRoute] = [
+    Route("/line/{line}/files", files),
+    Route("/line/{line}/files/upload", upload_preview, methods=["POST"]),
+    Route("/line/{line}/files/upload/confirm", upload_confirm, methods=["POST"]),
+    Route("/line/{line}/files/{channel:int}/{name}", file_view),
+    Route("/line/{line}/files/{channel:int}/{name}/download", file_download),
+    Route("/line/{line}/files/{channel:int}/{name}/point", point_edit, methods=["POST"]),
+    Route("/line/{line}/backup.zip", backup_zip),
+]
