@@ -31,7 +31,9 @@ def sample_json(sample: Sample | None) -> dict[str, Any]:
 
 
 def change_json(line: str, key: str, sample: Sample) -> dict[str, Any]:
-    return {"line": line, "key": key, **sample_json(sample)}
+    """A change as the event stream sends it, with the value's ``age`` in seconds now (the
+    page adds the time since it arrived: no clock of the browser's is trusted)."""
+    return {"line": line, "key": key, **sample_json(sample), "age": round(sample.age, 3)}
 
 
 def axis_unit(kind: PositionKind, axis: int, robot: RobotType | None) -> str:

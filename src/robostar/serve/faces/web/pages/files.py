@@ -11,7 +11,6 @@ from starlette.requests import Request
 from starlette.responses import RedirectResponse, Response
 from starlette.routing import BaseRoute, Route
 
-from robostar.client.files import point_lines
 from robostar.commands.files import DownloadFile, ListFiles, UploadFile
 from robostar.errors import RobostarError
 from robostar.protocol.fields import FileName
@@ -26,9 +25,10 @@ from robostar.serve.faces.web.forms import (
     steps,
 )
 from robostar.serve.faces.web.limits import MAX_UPLOAD, upload_too_large
+from robostar.serve.faces.web.points import axes_of, read_points, write_point
 from robostar.serve.faces.web.views import channels
 from robostar.serve.users import Role
-from robostar.types import ArmForm, CoordSystem, FileRecord, JobFile, Point, PointFile
+from robostar.types import CoordSystem, FileRecord, JobFile, PointFile
 
 __all__ = ["ROUTES"]
 
@@ -87,11 +87,6 @@ async def file_download(request: Request) -> Response:
     )
 
 
-def _axes_of(content: PointFile) -> int:
-    """How many axes a new point of this file has: as many as its other points."""
-    return max((len(p.axes) for p in content.points.values()), default=4)
-
-
 async def point_edit(request: Request) -> Response:
     """The point table editor: one point of a PNT file changed, the file written back (FB)."""
     deps = deps_of(request)
@@ -104,18 +99,11 @@ async def point_edit(request: Request) -> Response:
     if not name.is_points:
         raise Forbidden(400, f"{name} is not a point file")
     number = int_field(form.get("number"), "point", 0, 9999)
-    content = await line.read(DownloadFile(channel, name, CoordSystem.ANGLE), max_age=0)
-    if not isinstance(content, PointFile):
-        raise Forbidden(400, f"{name} did not download as a point table")
+    content = await read_points(line, channel, name)
     old = content.points.get(number)
-    count = len(old.axes) if old is not None else _axes_of(content)
+    count = len(old.axes) if old is not None else axes_of(content)
     axes = tuple(coordinate(form.get(f"axis{i}"), f"axis {i}") for i in range(1, count + 1))
-    arm = old.arm if old is not None else ArmForm.NONE
-    points = {**content.points, number: Point(axes, arm, True)}
-    records = await line.read(ListFiles(channel, "*"), max_age=0)
-    job_number = next((r.job_number for r in records if r.name == str(name)), 0)
-    lines = point_lines(points)
-    await deps.run(line, UploadFile(channel, name, job_number, lines), account)
+    await write_point(deps, line, account, channel, name, number, axes, content)
     return RedirectResponse(
         f"/line/{line.name}/files/{channel}/{name}?saved={number}", status_code=303
     )

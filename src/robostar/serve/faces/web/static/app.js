@@ -39,6 +39,11 @@ const renderers = {
       el.append(div);
     }
   },
+  axis(el, value) {
+    if (!value) return;
+    const v = value.axes[Number(el.dataset.axis) - 1];
+    el.textContent = v === undefined ? "—" : v.toFixed(3);
+  },
   axes(el, value) {
     if (!value) return;
     value.axes.forEach((v, i) => {
@@ -88,8 +93,20 @@ const renderers = {
   },
 };
 
+// how old each value is: its age when the server sent it, plus the time since (no clock skew)
+const ages = {};
+function showAges() {
+  for (const el of document.querySelectorAll("[data-age-of]")) {
+    const known = ages[el.dataset.ageOf];
+    if (!known) continue;
+    const age = known.age + (performance.now() - known.received) / 1000;
+    el.textContent = `${age.toFixed(1)} s ago`;
+  }
+}
+
 function apply(change) {
   const key = `${change.line}/${change.key}`;
+  if (typeof change.age === "number") ages[key] = { age: change.age, received: performance.now() };
   for (const el of document.querySelectorAll(`[data-key="${CSS.escape(key)}"]`)) {
     el.dataset.quality = change.quality;
     const render = renderers[el.dataset.render];
@@ -150,47 +167,121 @@ async function act(button) {
 }
 
 // -- jog -----------------------------------------------------------------------------------------
+const JOG_KEYS = { q: [1, "+"], a: [1, "-"], w: [2, "+"], s: [2, "-"], e: [3, "+"], d: [3, "-"],
+                   r: [4, "+"], f: [4, "-"], t: [5, "+"], g: [5, "-"], y: [6, "+"], h: [6, "-"] };
+
 function setupJog(panel) {
   const line = panel.dataset.line;
   const scheme = location.protocol === "https:" ? "wss" : "ws";
   const stateEl = document.getElementById("jog-state");
+  const channelEl = document.getElementById("jog-channel");
+  const motionEl = document.getElementById("jog-motion");
   let socket = null, timer = null;
+  const channel = () => Number(channelEl.value);
+  const step = () => Number(document.querySelector('input[name="jog-step"]:checked').value);
   const send = (message) => { if (socket && socket.readyState === 1) socket.send(JSON.stringify(message)); };
   const open = () => new Promise((resolve, reject) => {
     if (socket && socket.readyState === 1) return resolve();
     socket = new WebSocket(`${scheme}://${location.host}/line/${encodeURIComponent(line)}/jog/ws?csrf=${encodeURIComponent(csrf())}`);
     socket.onopen = () => resolve();
     socket.onerror = () => reject(new Error("jog connection refused"));
-    socket.onclose = () => { clearInterval(timer); stateEl.textContent = "Not connected."; };
+    socket.onclose = () => { clearInterval(timer); timer = null; stateEl.textContent = "Not connected."; };
     socket.onmessage = (event) => {
       const m = JSON.parse(event.data);
       if (m.type === "moving") stateEl.textContent = `Moving: channel ${m.channel}, axis ${m.axis}.`;
       else if (m.type === "stopped") stateEl.textContent = `Stopped (${m.reason}).`;
+      else if (m.type === "inched") stateEl.textContent = `Moved axis ${m.axis} by ${m.step > 0 ? "+" : ""}${m.step}.`;
+      else if (m.type === "speed") stateEl.textContent = `Speed of channel ${m.channel}: ${m.percent} %.`;
       else if (m.type === "error") stateEl.textContent = `Refused: ${m.error}`;
     };
   });
   const stop = (reason) => { clearInterval(timer); timer = null; send({ type: "stop", reason }); };
+  const press = async (axis, direction) => {
+    try { await open(); } catch (error) { stateEl.textContent = String(error); return; }
+    const base = { channel: channel(), axis, direction, motion: motionEl.value };
+    if (step() > 0) { send({ type: "inch", step: step(), ...base }); return; }
+    send({ type: "start", ...base });
+    clearInterval(timer);
+    timer = setInterval(() => send({ type: "keepalive" }), 100);
+  };
+  const release = () => { if (timer) stop("released"); };
   for (const button of panel.querySelectorAll(".jog-btn")) {
-    button.addEventListener("pointerdown", async (event) => {
+    button.addEventListener("pointerdown", (event) => {
       event.preventDefault();
-      try { await open(); } catch (error) { stateEl.textContent = String(error); return; }
-      send({
-        type: "start",
-        channel: Number(document.getElementById("jog-channel").value),
-        axis: Number(button.dataset.axis),
-        direction: button.dataset.direction,
-        motion: document.getElementById("jog-motion").value,
-      });
-      clearInterval(timer);
-      timer = setInterval(() => send({ type: "keepalive" }), 100);
+      press(Number(button.dataset.axis), button.dataset.direction);
     });
-    for (const kind of ["pointerup", "pointerleave", "pointercancel"]) {
-      button.addEventListener(kind, () => { if (timer) stop("released"); });
-    }
+    for (const kind of ["pointerup", "pointerleave", "pointercancel"]) button.addEventListener(kind, release);
   }
+  channelEl.addEventListener("change", release);
+  motionEl.addEventListener("change", release);
+  document.getElementById("jog-speed-set").addEventListener("click", async () => {
+    try { await open(); } catch (error) { stateEl.textContent = String(error); return; }
+    send({ type: "speed", channel: channel(), percent: Number(document.getElementById("jog-speed").value) });
+  });
+  // keyboard: hold a key to jog, as a button; key repeats are no new presses
+  const typing = (event) => {
+    const el = event.target;
+    if (el.tagName === "INPUT") return !["radio", "checkbox", "button"].includes(el.type);
+    return ["SELECT", "TEXTAREA"].includes(el.tagName) || el.isContentEditable;
+  };
+  let heldKey = null;
+  document.addEventListener("keydown", (event) => {
+    if (typing(event) || event.ctrlKey || event.metaKey || event.altKey) return;
+    const key = event.key.toLowerCase();
+    if (key === "escape" || key === " ") { event.preventDefault(); heldKey = null; stop("stopped from the keyboard"); return; }
+    const steps = document.querySelectorAll('input[name="jog-step"]');
+    if ("1234".includes(key) && key.length === 1 && steps[Number(key) - 1]) { steps[Number(key) - 1].checked = true; return; }
+    const jog = JOG_KEYS[key];
+    if (!jog || event.repeat) return;
+    const row = panel.querySelector(`.jog-axis[data-axis="${jog[0]}"]`);
+    if (!row || row.hidden) return;
+    event.preventDefault();
+    heldKey = key;
+    press(jog[0], jog[1]);
+  });
+  document.addEventListener("keyup", (event) => {
+    if (event.key.toLowerCase() === heldKey) { heldKey = null; release(); }
+  });
   document.addEventListener("visibilitychange", () => { if (document.hidden && timer) stop("page hidden"); });
   window.addEventListener("blur", () => { if (timer) stop("page lost focus"); });
   window.robostarJog = { stopKeepalive: () => { clearInterval(timer); timer = null; } };
+}
+
+// the channel picks the pad and the position table; the motion names the axes (for everyone)
+function setupJogView(channelEl, motionEl) {
+  const show = () => {
+    for (const el of document.querySelectorAll("table.position[data-channel]")) {
+      el.hidden = el.dataset.channel !== channelEl.value;
+    }
+    for (const row of document.querySelectorAll(".jog-axis[data-names]")) {
+      const names = JSON.parse(row.dataset.names)[channelEl.value];
+      row.hidden = !names;
+      if (names) row.querySelector(".axis-name").textContent = motionEl.value === "linear" ? names.xy : names.joint;
+    }
+  };
+  channelEl.addEventListener("change", show);
+  motionEl.addEventListener("change", show);
+  show();
+}
+
+function setupTeach(section) {
+  const line = location.pathname.split("/")[2];
+  const numberEl = document.getElementById("teach-number");
+  numberEl.addEventListener("input", () => { document.getElementById("teach-n").textContent = numberEl.value; });
+  document.getElementById("teach-btn").addEventListener("click", async () => {
+    const channel = Number(document.getElementById("jog-channel")?.value || 1);
+    const file = document.getElementById("teach-file").value.trim().toUpperCase();
+    const number = Number(numberEl.value);
+    if (!(await confirmDialog(`Store the current position of channel ${channel} as point ${number} of ${file}? The file on the controller is rewritten.`))) return;
+    const response = await fetch(`/line/${encodeURIComponent(line)}/jog/teach`, {
+      method: "POST",
+      headers: { "content-type": "application/json", "x-csrf-token": csrf() },
+      body: JSON.stringify({ channel, file, number, confirmed: true }),
+    });
+    const answer = await response.json().catch(() => ({ error: response.statusText }));
+    if (response.ok) toast(`Point ${answer.point} of ${answer.file}: ${answer.axes.map((v) => v.toFixed(3)).join(", ")}`);
+    else toast(`Teach: ${answer.error}`, true);
+  });
 }
 
 document.addEventListener("DOMContentLoaded", () => {
@@ -201,6 +292,11 @@ document.addEventListener("DOMContentLoaded", () => {
     const button = event.target.closest("[data-action]");
     if (button && may("operator")) { event.preventDefault(); act(button); }
   });
+  const channelEl = document.getElementById("jog-channel");
+  if (channelEl) setupJogView(channelEl, document.getElementById("jog-motion"));
   const panel = document.querySelector(".jog");
-  if (panel) setupJog(panel);
+  if (panel && may("operator")) setupJog(panel);
+  const teach = document.getElementById("teach");
+  if (teach && may("engineer")) setupTeach(teach);
+  setInterval(showAges, 100);
 });
