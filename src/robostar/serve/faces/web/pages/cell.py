@@ -5,10 +5,11 @@ from __future__ import annotations
 import asyncio
 import json
 from collections.abc import AsyncIterator
+from pathlib import Path
 from typing import Any
 
 from starlette.requests import Request
-from starlette.responses import JSONResponse, Response, StreamingResponse
+from starlette.responses import FileResponse, JSONResponse, Response, StreamingResponse
 from starlette.routing import BaseRoute, Route
 
 from robostar.serve.faces.web.deps import deps_of
@@ -17,6 +18,7 @@ from robostar.serve.line import Line
 
 __all__ = ["EVENT_KEEPALIVE", "ROUTES"]
 
+_STATIC = Path(__file__).parent.parent / "static"
 EVENT_KEEPALIVE = 15.0
 """Seconds between SSE comments on a quiet stream, so proxies keep it open."""
 
@@ -36,6 +38,11 @@ async def events(request: Request) -> Response:
         media_type="text/event-stream",
         headers={"cache-control": "no-store", "x-accel-buffering": "no"},
     )
+
+
+async def favicon(request: Request) -> Response:
+    """Browsers ask for /favicon.ico whatever the page says: the same icon, not a 404."""
+    return FileResponse(_STATIC / "favicon.svg", media_type="image/svg+xml")
 
 
 async def snapshot(request: Request) -> Response:
@@ -79,5 +86,6 @@ async def _event_stream(request: Request, lines: list[Line]) -> AsyncIterator[st
 ROUTES: list[BaseRoute] = [
     Route("/", overview),
     Route("/events", events),
+    Route("/favicon.ico", favicon),
     Route("/line/{line}/snapshot", snapshot),
 ]

@@ -13,22 +13,81 @@ from starlette.routing import BaseRoute, Route
 
 from robostar.commands.base import Command
 from robostar.commands.control import EmergencyStop, ResetAlarms, SetSpeed, StartJob, StopJob
+from robostar.commands.files import DownloadFile
 from robostar.commands.io import SetOutput
 from robostar.commands.job import Servo
+from robostar.errors import RobostarError
+from robostar.serve.faces.web.axes import channel_axes
 from robostar.serve.faces.web.deps import Forbidden, deps_of, needs
-from robostar.serve.faces.web.forms import int_field, json_body
-from robostar.serve.faces.web.views import card, detail
+from robostar.serve.faces.web.forms import file_name, int_field, json_body
+from robostar.serve.faces.web.views import card, channels, detail
+from robostar.serve.faces.web.workspace import Cache, read_workspace
 from robostar.serve.jsonable import jsonable
 from robostar.serve.lease import Who
+from robostar.serve.line import Line
 from robostar.serve.users import Role
+from robostar.types import CoordSystem, PointFile
 
 __all__ = ["ACTIONS", "ROUTES"]
+
+
+TRAIL_SECONDS = 30
+"""How much of the tool's path the XY view keeps."""
 
 
 async def controller(request: Request) -> Response:
     deps = deps_of(request)
     line = deps.line_of(request)
-    return deps.page(request, "controller.html", line=line, card=card(line), detail=detail(line))
+    cache: Cache = deps.extras.setdefault("workspaces", {})
+    views: dict[int, dict[str, Any]] = {}
+    for number in channels(line):
+        found = await read_workspace(line, number, cache)
+        views[number] = {
+            "workspace": None if found is None else {"outlines": found.outlines, "box": found.box},
+            "points": [],
+            "trail": TRAIL_SECONDS,
+        }
+    shown, error = await _taught_points(request, line, views)
+    axes = {number: channel_axes(line, number) for number in channels(line)}
+    return deps.page(
+        request,
+        "controller.html",
+        line=line,
+        card=card(line),
+        detail=detail(line),
+        axes=axes,
+        views=views,
+        shown_points=shown,
+        points_error=error,
+    )
+
+
+async def _taught_points(
+    request: Request, line: Line, views: dict[int, dict[str, Any]]
+) -> tuple[str | None, str | None]:
+    """The points of the PNT file the page asks for (``?points=NAME&pch=N``), in XY, as markers
+    of that channel's view: a download, so for a signed-in user only."""
+    deps = deps_of(request)
+    asked = request.query_params.get("points")
+    if not asked:
+        return None, None
+    channel = int_field(request.query_params.get("pch", "1"), "channel", 1, 3)
+    name = file_name(asked)
+    if not name.is_points or channel not in views:
+        return str(name), f"{name}: choose a point file (.PNT) of channel 1-{max(views)}"
+    deps.signed_in(request, line, "file view")
+    try:
+        with deps.one_transfer(line):
+            content = await line.read(DownloadFile(channel, name, CoordSystem.XY))
+    except (Forbidden, RobostarError) as exc:
+        return str(name), str(getattr(exc, "message", exc))
+    if isinstance(content, PointFile):
+        views[channel]["points"] = [
+            {"n": number, "x": point.axes[0], "y": point.axes[1]}
+            for number, point in sorted(content.points.items())
+            if point.used and len(point.axes) >= 2
+        ]
+    return str(name), None
 
 
 @dataclass(frozen=True, slots=True)
@@ -48,15 +107,28 @@ def _on(body: dict[str, Any]) -> bool:
     return value
 
 
+def _permille(body: dict[str, Any]) -> int:
+    """The speed as the wire carries it (0-1000, 1000 = 100 %), from ``percent`` (0-100, to
+    0.1) or, as before, ``speed`` in per mille."""
+    if "percent" not in body:
+        return int_field(body.get("speed"), "speed", 0, 1000)
+    value = body.get("percent")
+    try:
+        percent = float(str(value))
+    except ValueError:
+        raise Forbidden(400, f"speed: a percentage 0-100, not {value!r}") from None
+    if isinstance(value, bool) or not 0 <= percent <= 100:
+        raise Forbidden(400, f"speed: {value!r} is not a percentage 0-100")
+    return round(percent * 10)
+
+
 ACTIONS: dict[str, Action] = {
     "servo": Action(Role.OPERATOR, lambda b: Servo(_channel(b), _on(b))),
     "job_start": Action(Role.OPERATOR, lambda b: StartJob(_channel(b))),
     "job_stop": Action(Role.OPERATOR, lambda b: StopJob(_channel(b))),
     "reset_alarms": Action(Role.OPERATOR, lambda b: ResetAlarms()),
     "emergency_stop": Action(Role.OPERATOR, lambda b: EmergencyStop()),
-    "speed": Action(
-        Role.OPERATOR, lambda b: SetSpeed(_channel(b), int_field(b.get("speed"), "speed", 0, 1000))
-    ),
+    "speed": Action(Role.OPERATOR, lambda b: SetSpeed(_channel(b), _permille(b))),
     "output": Action(
         Role.OPERATOR,
         lambda b: SetOutput(

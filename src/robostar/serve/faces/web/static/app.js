@@ -51,24 +51,14 @@ const renderers = {
       if (cell) cell.textContent = v.toFixed(3);
     });
   },
-  trail(el, value) {
+  xyview(el, value) {
     if (!value || value.axes.length < 2) return;
-    const points = (el._trail = el._trail || []);
-    points.push([value.axes[0], value.axes[1]]);
-    if (points.length > 200) points.shift();
-    const ctx = el.getContext("2d");
-    const xs = points.map((p) => p[0]), ys = points.map((p) => p[1]);
-    const minX = Math.min(...xs), maxX = Math.max(...xs), minY = Math.min(...ys), maxY = Math.max(...ys);
-    const span = Math.max(maxX - minX, maxY - minY, 1);
-    const scale = (el.width - 20) / span;
-    ctx.clearRect(0, 0, el.width, el.height);
-    ctx.strokeStyle = "#3b82f6";
-    ctx.beginPath();
-    points.forEach(([x, y], i) => {
-      const px = 10 + (x - minX) * scale, py = el.height - 10 - (y - minY) * scale;
-      if (i === 0) ctx.moveTo(px, py); else ctx.lineTo(px, py);
-    });
-    ctx.stroke();
+    const now = performance.now();
+    const trail = (el._trail = el._trail || []);
+    trail.push([value.axes[0], value.axes[1], now]);
+    const view = JSON.parse(el.dataset.view);
+    while (trail.length && now - trail[0][2] > view.trail * 1000) trail.shift();
+    drawXY(el);
   },
   contacts(el, value) {
     if (!value) return;
@@ -102,6 +92,66 @@ function showAges() {
     const age = known.age + (performance.now() - known.received) / 1000;
     el.textContent = `${age.toFixed(1)} s ago`;
   }
+}
+
+// -- the XY view: workspace, mm axes, taught points, the trail and the current point ------------
+function niceStep(span) {
+  const raw = span / 6, power = 10 ** Math.floor(Math.log10(raw));
+  return [1, 2, 5, 10].map((m) => m * power).find((s) => s >= raw);
+}
+
+function drawXY(el) {
+  const view = JSON.parse(el.dataset.view);
+  const trail = el._trail || [];
+  const xs = [], ys = [];
+  if (view.workspace) { xs.push(view.workspace.box[0], view.workspace.box[2]); ys.push(view.workspace.box[1], view.workspace.box[3]); }
+  for (const p of view.points) { xs.push(p.x); ys.push(p.y); }
+  for (const p of trail) { xs.push(p[0]); ys.push(p[1]); }
+  if (!xs.length) { xs.push(-100, 100); ys.push(-100, 100); }
+  let minX = Math.min(...xs), maxX = Math.max(...xs), minY = Math.min(...ys), maxY = Math.max(...ys);
+  const span = Math.max(maxX - minX, maxY - minY, 20) * 1.1;
+  const cx = (minX + maxX) / 2, cy = (minY + maxY) / 2;
+  minX = cx - span / 2; maxX = cx + span / 2; minY = cy - span / 2; maxY = cy + span / 2;
+  const size = el.width, margin = 34, scale = (size - 2 * margin) / span;
+  const px = (x) => margin + (x - minX) * scale, py = (y) => size - margin - (y - minY) * scale;
+  const ctx = el.getContext("2d");
+  ctx.clearRect(0, 0, size, el.height);
+  ctx.font = "11px system-ui, sans-serif";
+  // grid and mm labels
+  const step = niceStep(span);
+  ctx.strokeStyle = "#1e293b"; ctx.fillStyle = "#94a3b8"; ctx.lineWidth = 1;
+  for (let x = Math.ceil(minX / step) * step; x <= maxX; x += step) {
+    ctx.beginPath(); ctx.moveTo(px(x), margin); ctx.lineTo(px(x), size - margin); ctx.stroke();
+    ctx.fillText(String(Math.round(x)), px(x) - 10, size - margin + 14);
+  }
+  for (let y = Math.ceil(minY / step) * step; y <= maxY; y += step) {
+    ctx.beginPath(); ctx.moveTo(margin, py(y)); ctx.lineTo(size - margin, py(y)); ctx.stroke();
+    ctx.fillText(String(Math.round(y)), 2, py(y) + 4);
+  }
+  ctx.fillText("X mm →", size - margin - 40, size - 4);
+  ctx.fillText("↑ Y mm", margin, 12);
+  if (view.workspace) {
+    ctx.strokeStyle = "#64748b"; ctx.lineWidth = 1.5;
+    for (const curve of view.workspace.outlines) {
+      ctx.beginPath();
+      curve.forEach(([x, y], i) => (i ? ctx.lineTo(px(x), py(y)) : ctx.moveTo(px(x), py(y))));
+      ctx.stroke();
+    }
+  }
+  ctx.fillStyle = "#f59e0b";
+  for (const p of view.points) {
+    ctx.fillRect(px(p.x) - 3, py(p.y) - 3, 6, 6);
+    ctx.fillText(`P${p.n}`, px(p.x) + 5, py(p.y) - 5);
+  }
+  if (trail.length) {
+    ctx.strokeStyle = "#3b82f6"; ctx.lineWidth = 2; ctx.beginPath();
+    trail.forEach(([x, y], i) => (i ? ctx.lineTo(px(x), py(y)) : ctx.moveTo(px(x), py(y))));
+    ctx.stroke();
+    const [x, y] = trail[trail.length - 1];
+    ctx.fillStyle = "#22c55e"; ctx.beginPath(); ctx.arc(px(x), py(y), 5, 0, 2 * Math.PI); ctx.fill();
+    ctx.fillStyle = "#e2e8f0"; ctx.fillText(`${x.toFixed(1)}, ${y.toFixed(1)}`, px(x) + 8, py(y) + 12);
+  }
+  el.dataset.drawn = String(trail.length);
 }
 
 function apply(change) {
@@ -148,7 +198,10 @@ async function act(button) {
   if (button.dataset.channel) body.channel = Number(button.dataset.channel);
   if (button.dataset.on) body.on = button.dataset.on === "true";
   let text = button.dataset.confirm;
-  if (body.action === "speed") body.speed = Number(button.closest(".actions").querySelector(".speed-input").value);
+  if (body.action === "speed") {
+    body.percent = Number(button.closest(".actions").querySelector(".speed-input").value);
+    text = `Set the speed of channel ${body.channel} to ${body.percent} %?`;
+  }
   if (body.action === "output") {
     body.port = Number(button.dataset.port);
     body.contact = Number(button.dataset.contact);
@@ -164,6 +217,22 @@ async function act(button) {
   const answer = await response.json().catch(() => ({ error: response.statusText }));
   if (response.ok) toast(`${body.action}: done`);
   else toast(`${body.action}: ${answer.error}`, true);
+}
+
+// -- the stop at the top of every page: one click, no dialog (a stop must not wait) -----------
+async function stopEverything(button) {
+  if (!may("operator")) { toast("Stopping needs an operator: sign in, or use the pendant's emergency stop.", true); return; }
+  const results = await Promise.all(button.dataset.lines.split(" ").filter(Boolean).map(async (line) => {
+    const response = await fetch(`/line/${encodeURIComponent(line)}/action`, {
+      method: "POST",
+      headers: { "content-type": "application/json", "x-csrf-token": csrf() },
+      body: JSON.stringify({ action: "emergency_stop", confirmed: true }),
+    }).catch((error) => ({ ok: false, statusText: String(error) }));
+    return response.ok ? null : `${line}: ${response.statusText}`;
+  }));
+  const failed = results.filter(Boolean);
+  if (failed.length) toast(`Emergency stop failed on ${failed.join(", ")}`, true);
+  else toast("Emergency stop sent: reset the alarms to go on.");
 }
 
 // -- jog -----------------------------------------------------------------------------------------
@@ -299,4 +368,7 @@ document.addEventListener("DOMContentLoaded", () => {
   const teach = document.getElementById("teach");
   if (teach && may("engineer")) setupTeach(teach);
   setInterval(showAges, 100);
+  for (const el of document.querySelectorAll("canvas.xyview")) drawXY(el);
+  const stopAll = document.getElementById("stop-all");
+  if (stopAll) stopAll.addEventListener("click", () => stopEverything(stopAll));
 });

@@ -1,0 +1,80 @@
+"""The controller page: an XY view with the workspace from the soft limits, positions named
+X/Y/Z/R beside the joint angles, lamps whose off state is neutral, speed in percent (the wire's
+per mille stays on the wire), the emergency stop on every page, and a favicon."""
+
+from __future__ import annotations
+
+import html
+import json
+import re
+
+import httpx
+import pytest
+from web_harness import Stack, login
+
+from robostar.serve.faces.web.workspace import parse_links, parse_ranges, scara_outline
+
+
+def view_of(page: str, channel: int) -> dict[str, object]:
+    canvases = re.findall(r'<canvas class="xyview"[^>]*data-view="([^"]*)"', page)
+    assert len(canvases) >= channel, "no XY view"
+    view: dict[str, object] = json.loads(html.unescape(canvases[channel - 1]))
+    return view
+
+
+def test_the_xy_view_has_the_workspace_of_the_soft_limits(
+    stack: Stack, client: httpx.Client
+) -> None:
+    page = client.get("/line/cell1").text
+    scara = view_of(page, 1)["workspace"]
+    assert isinstance(scara, dict)
+    # the simulated SCARA: links 350 + 250 mm, J1 -120..120, J2 -145..145: reach 600 mm
+    _, ymin, xmax, ymax = scara["box"]
+    assert xmax == pytest.approx(600.0, abs=1.0)
+    assert ymax == pytest.approx(600.0, abs=15.0) and ymin == pytest.approx(-600.0, abs=15.0)
+    cartesian = view_of(page, 2)["workspace"]
+    assert isinstance(cartesian, dict)
+    assert cartesian["box"] == [0.0, 0.0, 600.0, 600.0]
+    assert "Workspace from the soft limits" in page
+
+
+def test_positions_are_named_and_shown_with_the_joint_angles(
+    stack: Stack, client: httpx.Client
+) -> None:
+    page = client.get("/line/cell1").text
+    for name in ("<th>X</th>", "<th>Y</th>", "<th>Z</th>", "<th>R</th>", "<th>J1</th>"):
+        assert name in page
+    assert 'data-key="cell1/ch1/angles"' in page
+    assert "Axis 1" not in page
+
+
+def test_speed_is_set_in_percent(stack: Stack) -> None:
+    with httpx.Client(base_url=stack.url, timeout=10) as http:
+        token = login(http, "olga")
+        body = {"action": "speed", "channel": 2, "percent": 37.5, "confirmed": True}
+        answer = http.post("/line/cell1/action", json=body, headers={"x-csrf-token": token})
+        assert answer.status_code == 200, answer.text
+        assert stack.in_sim(lambda c: c.model.channels[1].speed) == 375
+        body["percent"] = 101
+        answer = http.post("/line/cell1/action", json=body, headers={"x-csrf-token": token})
+        assert answer.status_code == 400 and "percentage" in answer.json()["error"]
+        page = http.get("/line/cell1").text
+    assert "‰" not in page and 'class="speed-input"' in page
+
+
+def test_every_page_has_the_stop_and_a_favicon(stack: Stack, client: httpx.Client) -> None:
+    for path in ("/", "/line/cell1", "/line/cell1/jog", "/audit", "/health", "/login"):
+        page = client.get(path).text
+        assert 'id="stop-all"' in page and "no enabling device" in page, path
+    icon = client.get("/favicon.ico")
+    assert icon.status_code == 200 and icon.headers["content-type"].startswith("image/svg")
+
+
+def test_the_parameter_texts_are_read_leniently() -> None:
+    assert parse_ranges("RANG: 1:-120.000~120.000 2:-145~145") == [(-120.0, 120.0), (-145, 145)]
+    assert parse_links("LENG: 350.000 250.000") == (350.0, 250.0)
+    assert parse_links("LENG: 0.000 0.000") is None
+    border, reach = scara_outline((350.0, 250.0), (-90.0, 90.0), (-10.0, 10.0))
+    assert border[0] == border[-1]  # closed
+    assert max(x for x, _ in reach) == pytest.approx(600.0)  # the stretched arm
+    assert len(scara_outline((350.0, 250.0), (-90.0, 90.0), (10.0, 20.0))) == 1  # no J2 = 0
