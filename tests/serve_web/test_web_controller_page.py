@@ -78,3 +78,29 @@ def test_the_parameter_texts_are_read_leniently() -> None:
     assert border[0] == border[-1]  # closed
     assert max(x for x, _ in reach) == pytest.approx(600.0)  # the stretched arm
     assert len(scara_outline((350.0, 250.0), (-90.0, 90.0), (10.0, 20.0))) == 1  # no J2 = 0
+
+
+def test_job_select_takes_a_job_of_the_channels_own(stack: Stack, client: httpx.Client) -> None:
+    assert client.get("/line/cell1/jobs/1").status_code == 403  # FD is a transfer: signed in
+    with httpx.Client(base_url=stack.url, timeout=10) as http:
+        token = login(http, "olga")
+        listed = http.get("/line/cell1/jobs/1").json()["jobs"]
+        assert {"name": "DEMO.JOB", "number": 1} in [
+            {"name": j["name"], "number": j["number"]} for j in listed
+        ]
+        assert http.get("/line/cell1/jobs/3").status_code == 404  # two channels here
+        before = stack.in_sim(lambda c: c.executions["DC"])
+        body = {"action": "job_select", "channel": 1, "job": "DEMO.PNT", "confirmed": True}
+        answer = http.post("/line/cell1/action", json=body, headers={"x-csrf-token": token})
+        assert answer.status_code == 400 and "JOB file" in answer.json()["error"]
+        assert stack.in_sim(lambda c: c.executions["DC"]) == before
+
+
+def test_the_files_page_offers_the_controllers_channels_only(stack: Stack) -> None:
+    with httpx.Client(base_url=stack.url, timeout=10) as http:
+        login(http, "vic")
+        page = http.get("/line/cell1/files").text
+        assert '?channel=1"' in page and '?channel=2"' in page and '?channel=3"' not in page
+        assert "≤ 1 KB" in page  # FD counts in KB: a small file is not "1 KB"
+        assert "has no channel 3" in http.get("/line/cell1/files?channel=3").text
+        assert "bytes as downloaded" in http.get("/line/cell1/files/1/DEMO.PNT").text

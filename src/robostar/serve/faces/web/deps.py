@@ -184,11 +184,12 @@ class WebDeps:
 
 def templates() -> Jinja2Templates:
     """The pages' templates, with the globals and filters they use."""
-    from robostar.serve.faces.web.views import clock
+    from robostar.serve.faces.web.views import clock, job_name
 
     found = Jinja2Templates(directory=str(_HERE / "templates"))
     found.env.globals["csrf_field"] = CSRF_FIELD
     found.env.filters["clock"] = clock
+    found.env.filters["job_name"] = job_name
     return found
 
 

@@ -18,6 +18,7 @@ __all__ = [
     "clock",
     "detail",
     "health_row",
+    "job_name",
     "robot_of",
     "sample_json",
 ]
@@ -48,6 +49,13 @@ def axis_unit(kind: PositionKind, axis: int, robot: RobotType | None) -> str:
     if kind is PositionKind.ANGLE and robot is RobotType.SCARA and axis in (1, 2):
         return "°"
     return "mm"
+
+
+def job_name(value: object, empty: str = "—") -> str:
+    """A job's name as the model's JSON holds it (``{"stem", "extension"}``) in words."""
+    if isinstance(value, dict) and "stem" in value:
+        return f"{value['stem']}.{value.get('extension', 'JOB')}"
+    return empty if value is None or value == "" else str(value)
 
 
 def clock(at: object) -> object:

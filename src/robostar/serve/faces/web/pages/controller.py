@@ -13,10 +13,12 @@ from starlette.routing import BaseRoute, Route
 
 from robostar.commands.base import Command
 from robostar.commands.control import EmergencyStop, ResetAlarms, SetSpeed, StartJob, StopJob
-from robostar.commands.files import DownloadFile
+from robostar.commands.files import DownloadFile, ListFiles
 from robostar.commands.io import SetOutput
-from robostar.commands.job import Servo
+from robostar.commands.job import SelectJob, Servo, SetJobMode
+from robostar.commands.motion import Home
 from robostar.errors import RobostarError
+from robostar.protocol.fields import FileName
 from robostar.serve.faces.web.axes import channel_axes
 from robostar.serve.faces.web.deps import Forbidden, deps_of, needs
 from robostar.serve.faces.web.forms import file_name, int_field, json_body
@@ -26,7 +28,7 @@ from robostar.serve.jsonable import jsonable
 from robostar.serve.lease import Who
 from robostar.serve.line import Line
 from robostar.serve.users import Role
-from robostar.types import CoordSystem, PointFile
+from robostar.types import CoordSystem, JobMode, PointFile
 
 __all__ = ["ACTIONS", "ROUTES"]
 
@@ -92,8 +94,10 @@ async def _taught_points(
 
 @dataclass(frozen=True, slots=True)
 class Action:
+    """An action: the role it needs and the command(s) it sends, in order, from the body."""
+
     role: Role
-    build: Callable[[dict[str, Any]], Command[Any]]
+    build: Callable[[dict[str, Any]], Command[Any] | tuple[Command[Any], ...]]
 
 
 def _channel(body: dict[str, Any]) -> int:
@@ -105,6 +109,13 @@ def _on(body: dict[str, Any]) -> bool:
     if not isinstance(value, bool):
         raise Forbidden(400, "on: true or false")
     return value
+
+
+def _job(body: dict[str, Any]) -> FileName:
+    name = file_name(str(body.get("job", "")))
+    if not name.is_job:
+        raise Forbidden(400, f"{name}: choose a JOB file")
+    return name
 
 
 def _permille(body: dict[str, Any]) -> int:
@@ -124,7 +135,15 @@ def _permille(body: dict[str, Any]) -> int:
 
 ACTIONS: dict[str, Action] = {
     "servo": Action(Role.OPERATOR, lambda b: Servo(_channel(b), _on(b))),
+    "home": Action(Role.OPERATOR, lambda b: Home(_channel(b))),
+    "job_select": Action(Role.OPERATOR, lambda b: SelectJob(_channel(b), _job(b))),
     "job_start": Action(Role.OPERATOR, lambda b: StartJob(_channel(b))),
+    # one step: STEP mode (hold after each step), then start: the job runs its next step
+    "job_step": Action(
+        Role.OPERATOR,
+        lambda b: (SetJobMode(_channel(b), JobMode.STEP), StartJob(_channel(b))),
+    ),
+    "job_auto": Action(Role.OPERATOR, lambda b: SetJobMode(_channel(b), JobMode.AUTO)),
     "job_stop": Action(Role.OPERATOR, lambda b: StopJob(_channel(b))),
     "reset_alarms": Action(Role.OPERATOR, lambda b: ResetAlarms()),
     "emergency_stop": Action(Role.OPERATOR, lambda b: EmergencyStop()),
@@ -157,9 +176,32 @@ async def action(request: Request) -> Response:
         deps.refuse(line, account, f"action {name}", 403, needs(spec.role))
     if body.get("confirmed") is not True:
         raise Forbidden(428, f"{name}: confirm it first")
-    command = spec.build(body)
-    result = await deps.run(line, command, account)
+    built = spec.build(body)
+    commands = built if isinstance(built, tuple) else (built,)
+    for command in commands:
+        command.encode()  # every command checked before the first is sent
+    result = None
+    for command in commands:
+        result = await deps.run(line, command, account)
     return JSONResponse({"ok": True, "action": name, "result": jsonable(result)})
+
+
+async def jobs(request: Request) -> Response:
+    """The JOB files of a channel, by name and number (FD: a transfer, for signed-in users)."""
+    deps = deps_of(request)
+    line = deps.line_of(request)
+    channel = int_field(request.path_params["channel"], "channel", 1, 3)
+    if channel not in channels(line):
+        raise Forbidden(404, f"line {line.name} has no channel {channel}")
+    deps.signed_in(request, line, "job list")
+    with deps.one_transfer(line):
+        records = await line.read(ListFiles(channel, "*"))
+    found = [
+        {"name": r.name, "number": r.job_number, "steps": r.steps}
+        for r in records
+        if r.name.upper().endswith(".JOB")
+    ]
+    return JSONResponse({"channel": channel, "jobs": sorted(found, key=lambda j: j["number"])})
 
 
 async def release(request: Request) -> Response:
@@ -177,5 +219,6 @@ async def release(request: Request) -> Response:
 ROUTES: list[BaseRoute] = [
     Route("/line/{line}", controller),
     Route("/line/{line}/action", action, methods=["POST"]),
+    Route("/line/{line}/jobs/{channel:int}", jobs),
     Route("/line/{line}/release", release, methods=["POST"]),
 ]

@@ -36,10 +36,13 @@ __all__ = ["ROUTES"]
 async def files(request: Request) -> Response:
     deps = deps_of(request)
     line = deps.line_of(request)
-    channel = int_field(request.query_params.get("channel", "1"), "channel", 1, 3)
+    shown = channels(line)
+    channel = int_field(request.query_params.get("channel", str(shown[0])), "channel", 1, 3)
     listing: tuple[FileRecord, ...] = ()
     error = None
-    if not deps.account(request).may(Role.VIEWER):
+    if channel not in shown:
+        error = f"line {line.name} has no channel {channel}: it has {', '.join(map(str, shown))}"
+    elif not deps.account(request).may(Role.VIEWER):
         # FD is a transfer too (up to 403 packets): not for a GET any page can fire
         error = "Sign in to list the files: the list is read from the controller."
     else:
@@ -50,7 +53,15 @@ async def files(request: Request) -> Response:
             error = exc.message
         except RobostarError as exc:
             error = str(exc)
-    return deps.page(request, "files.html", line=line, channel=channel, files=listing, error=error)
+    return deps.page(
+        request,
+        "files.html",
+        line=line,
+        channel=channel,
+        channels=shown,
+        files=listing,
+        error=error,
+    )
 
 
 async def file_view(request: Request) -> Response:
@@ -70,6 +81,7 @@ async def file_view(request: Request) -> Response:
         job=content if isinstance(content, JobFile) else None,
         points=content if isinstance(content, PointFile) else None,
         coords=coords.name.lower(),
+        size=len(file_text(content).encode("ascii", "replace")),
     )
 
 

@@ -39,6 +39,9 @@ const renderers = {
       el.append(div);
     }
   },
+  job(el, value) {
+    el.textContent = value && typeof value === "object" ? `${value.stem}.${value.extension}` : value || "—";
+  },
   axis(el, value) {
     if (!value) return;
     const v = value.axes[Number(el.dataset.axis) - 1];
@@ -202,6 +205,12 @@ async function act(button) {
     body.percent = Number(button.closest(".actions").querySelector(".speed-input").value);
     text = `Set the speed of channel ${body.channel} to ${body.percent} %?`;
   }
+  if (body.action === "job_select") {
+    const select = button.closest(".actions").querySelector(".job-select");
+    body.job = select.value;
+    if (!body.job) { toast("Choose a JOB file first", true); return; }
+    text = `Select ${body.job} on channel ${body.channel}?`;
+  }
   if (body.action === "output") {
     body.port = Number(button.dataset.port);
     body.contact = Number(button.dataset.contact);
@@ -217,6 +226,22 @@ async function act(button) {
   const answer = await response.json().catch(() => ({ error: response.statusText }));
   if (response.ok) toast(`${body.action}: done`);
   else toast(`${body.action}: ${answer.error}`, true);
+}
+
+// the channel's JOB files, read from the controller when the operator opens the list
+async function loadJobs(select) {
+  if (select.dataset.loaded) return;
+  select.dataset.loaded = "yes";
+  const line = location.pathname.split("/")[2];
+  const response = await fetch(`/line/${encodeURIComponent(line)}/jobs/${select.dataset.channel}`);
+  const answer = await response.json().catch(() => ({ error: response.statusText }));
+  if (!response.ok) { toast(`Jobs: ${answer.error}`, true); delete select.dataset.loaded; return; }
+  for (const job of answer.jobs) {
+    const option = document.createElement("option");
+    option.value = job.name;
+    option.textContent = `${job.number}: ${job.name} (${job.steps} steps)`;
+    select.append(option);
+  }
 }
 
 // -- the stop at the top of every page: one click, no dialog (a stop must not wait) -----------
@@ -369,6 +394,9 @@ document.addEventListener("DOMContentLoaded", () => {
   if (teach && may("engineer")) setupTeach(teach);
   setInterval(showAges, 100);
   for (const el of document.querySelectorAll("canvas.xyview")) drawXY(el);
+  for (const select of document.querySelectorAll(".job-select")) {
+    for (const kind of ["focus", "pointerdown"]) select.addEventListener(kind, () => loadJobs(select));
+  }
   const stopAll = document.getElementById("stop-all");
   if (stopAll) stopAll.addEventListener("click", () => stopEverything(stopAll));
 });
