@@ -6,6 +6,8 @@ from __future__ import annotations
 import io
 import time
 import zipfile
+from collections.abc import Mapping
+from typing import Any
 
 from starlette.requests import Request
 from starlette.responses import RedirectResponse, Response
@@ -15,6 +17,7 @@ from robostar.commands.files import DownloadFile, ListFiles, UploadFile
 from robostar.errors import RobostarError
 from robostar.protocol.fields import FileName
 from robostar.serve.faces.web.auth import read_form
+from robostar.serve.faces.web.axes import channel_axes
 from robostar.serve.faces.web.deps import Forbidden, deps_of
 from robostar.serve.faces.web.forms import (
     coordinate,
@@ -27,6 +30,7 @@ from robostar.serve.faces.web.forms import (
 from robostar.serve.faces.web.limits import MAX_UPLOAD, upload_too_large
 from robostar.serve.faces.web.points import axes_of, read_points, write_point
 from robostar.serve.faces.web.views import channels
+from robostar.serve.line import Line
 from robostar.serve.users import Role
 from robostar.types import CoordSystem, FileRecord, JobFile, PointFile
 
@@ -70,9 +74,29 @@ async def file_view(request: Request) -> Response:
     channel, name = file_params(request)  # a bad name is a 400 for anyone: nothing sent
     deps.signed_in(request, line, "file view")
     coords = CoordSystem.XY if request.query_params.get("coords") == "xy" else CoordSystem.ANGLE
+    return await _file_page(request, line, channel, name, coords)
+
+
+async def _file_page(
+    request: Request,
+    line: Line,
+    channel: int,
+    name: FileName,
+    coords: CoordSystem,
+    *,
+    error: str | None = None,
+    entered: Mapping[str, str] | None = None,
+    status: int = 200,
+) -> Response:
+    """A file's page; for a PNT file in angles, the point editor with its fields filled: with
+    what was entered (after a refusal), else with the point ``?edit=N`` (or the first)."""
+    deps = deps_of(request)
     with deps.one_transfer(line):
         content = await line.read(DownloadFile(channel, name, coords))
-    return deps.page(
+    editor = None
+    if isinstance(content, PointFile) and coords is CoordSystem.ANGLE:
+        editor = _editor(line, channel, content, request.query_params.get("edit"), entered)
+    response = deps.page(
         request,
         "file.html",
         line=line,
@@ -82,7 +106,39 @@ async def file_view(request: Request) -> Response:
         points=content if isinstance(content, PointFile) else None,
         coords=coords.name.lower(),
         size=len(file_text(content).encode("ascii", "replace")),
+        editor=editor,
+        error=error,
     )
+    response.status_code = status
+    return response
+
+
+def _editor(
+    line: Line,
+    channel: int,
+    content: PointFile,
+    asked: str | None,
+    entered: Mapping[str, str] | None,
+) -> dict[str, Any]:
+    count = axes_of(content)
+    names = {a.number: f"{a.joint} ({a.joint_unit})" for a in channel_axes(line, channel)}
+    table = {
+        str(n): [f"{v:.3f}" for v in p.axes] for n, p in sorted(content.points.items()) if p.used
+    }
+    if entered is not None:
+        number = entered.get("number", "")
+        values = [entered.get(f"axis{i}", "") for i in range(1, count + 1)]
+    else:
+        number = asked if asked in table else next(iter(table), "1")
+        values = table.get(number, [""] * count)
+    return {
+        "number": number,
+        "axes": [
+            {"index": i, "label": names.get(i, f"Axis {i}"), "value": values[i - 1]}
+            for i in range(1, count + 1)
+        ],
+        "table": table,
+    }
 
 
 async def file_download(request: Request) -> Response:
@@ -100,24 +156,43 @@ async def file_download(request: Request) -> Response:
 
 
 async def point_edit(request: Request) -> Response:
-    """The point table editor: one point of a PNT file changed, the file written back (FB)."""
+    """The point table editor: one point of a PNT file changed, the file written back (FB).
+    A refusal is shown on the file's page, in words, with what was entered (a browser), or as
+    JSON (any other client)."""
     deps = deps_of(request)
     line = deps.line_of(request)
     account = await deps.guard(request, Role.ENGINEER, line, "point edit")
     channel, name = file_params(request)
     form = await read_form(request)
-    if form.get("confirmed") != "yes":
-        raise Forbidden(428, "confirm the change of the point first")
-    if not name.is_points:
-        raise Forbidden(400, f"{name} is not a point file")
-    number = int_field(form.get("number"), "point", 0, 9999)
-    content = await read_points(line, channel, name)
-    old = content.points.get(number)
-    count = len(old.axes) if old is not None else axes_of(content)
-    axes = tuple(coordinate(form.get(f"axis{i}"), f"axis {i}") for i in range(1, count + 1))
-    await write_point(deps, line, account, channel, name, number, axes, content)
+    try:
+        if form.get("confirmed") != "yes":
+            raise Forbidden(428, "confirm the change of the point first")
+        if not name.is_points:
+            raise Forbidden(400, f"{name} is not a point file")
+        number = int_field(form.get("number"), "point", 0, 9999)
+        content = await read_points(line, channel, name)
+        old = content.points.get(number)
+        count = len(old.axes) if old is not None else axes_of(content)
+        axes = tuple(coordinate(form.get(f"axis{i}"), f"axis {i}") for i in range(1, count + 1))
+        await write_point(deps, line, account, channel, name, number, axes, content)
+    except (Forbidden, RobostarError) as exc:
+        if "text/html" not in request.headers.get("accept", "") or not name.is_points:
+            raise
+        status = exc.status if isinstance(exc, Forbidden) else 409
+        why = exc.message if isinstance(exc, Forbidden) else str(exc)
+        entered = {k: v for k, v in form.items() if isinstance(v, str)}
+        return await _file_page(
+            request,
+            line,
+            channel,
+            name,
+            CoordSystem.ANGLE,
+            error=f"The point was not written: {why}.",
+            entered=entered,
+            status=status,
+        )
     return RedirectResponse(
-        f"/line/{line.name}/files/{channel}/{name}?saved={number}", status_code=303
+        f"/line/{line.name}/files/{channel}/{name}?saved={number}&edit={number}", status_code=303
     )
 
 

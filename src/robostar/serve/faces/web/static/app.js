@@ -244,6 +244,16 @@ async function loadJobs(select) {
   }
 }
 
+// the point editor: choosing a point fills the fields with its values
+function setupPointEditor(form) {
+  const table = JSON.parse(form.dataset.table);
+  const number = form.querySelector("#point-number");
+  number.addEventListener("input", () => {
+    const values = table[String(Number(number.value))];
+    form.querySelectorAll(".axis-input").forEach((input, i) => { input.value = values ? values[i] ?? "" : ""; });
+  });
+}
+
 // -- the stop at the top of every page: one click, no dialog (a stop must not wait) -----------
 async function stopEverything(button) {
   if (!may("operator")) { toast("Stopping needs an operator: sign in, or use the pendant's emergency stop.", true); return; }
@@ -394,6 +404,8 @@ document.addEventListener("DOMContentLoaded", () => {
   if (teach && may("engineer")) setupTeach(teach);
   setInterval(showAges, 100);
   for (const el of document.querySelectorAll("canvas.xyview")) drawXY(el);
+  const pointForm = document.getElementById("point-form");
+  if (pointForm) setupPointEditor(pointForm);
   for (const select of document.querySelectorAll(".job-select")) {
     for (const kind of ["focus", "pointerdown"]) select.addEventListener(kind, () => loadJobs(select));
   }
