@@ -13,6 +13,9 @@ Options (the ``[web]`` section):
 - ``hosts``: host names the dashboard answers to besides its listen address (and, on loopback,
   ``localhost``/``127.0.0.1``/``::1``): the names a reverse proxy passes on in ``Host``. Any
   other ``Host`` gets a 400 (DNS rebinding);
+- ``programs``: the folder where the versions of the JOB and PNT files the dashboard writes and
+  reads are kept (default: ``programs`` beside the audit log; without an audit log, in memory);
+  ``program_versions``: how many versions of each file are kept (default 50);
 - ``max_body``: the largest request body read, in bytes, on every route but the two upload
   routes (default 64 KiB; 413 past it). An upload takes the largest file the N1 protocol carries
   (``limits.MAX_UPLOAD``: 9999 steps of 100 bytes) and its form, whatever this says.
@@ -51,6 +54,8 @@ _KNOWN = frozenset(
         "behind_proxy",
         "hosts",
         "max_body",
+        "programs",
+        "program_versions",
     )
 )
 log = logging.getLogger(__name__)
@@ -66,6 +71,7 @@ class WebFace:
         from robostar.serve.faces.web.app import WebSettings, build_app
         from robostar.serve.faces.web.limits import DEFAULT_MAX_BODY
         from robostar.serve.http_guard import hosts_option, max_body_option
+        from robostar.serve.programs import DEFAULT_RETENTION
         from robostar.serve.users import UserStore
 
         self.host, self.port = _listen(str(options.get("listen", DEFAULT_LISTEN)))
@@ -95,6 +101,12 @@ class WebFace:
         users_path = options.get("users")
         self.users = UserStore(str(users_path) if users_path is not None else None)
         audit = getattr(server.config, "audit_path", None)
+        programs = options.get("programs")
+        if programs is None and audit is not None:
+            programs = Path(str(audit)).parent / "programs"
+        versions = options.get("program_versions", DEFAULT_RETENTION)
+        if isinstance(versions, bool) or not isinstance(versions, int) or versions < 1:
+            raise UsageError(f"web: program_versions {versions!r} is not a whole number >= 1")
         self.settings = settings = WebSettings(
             users=self.users,
             secret=_secret(options.get("secret_file")),
@@ -103,6 +115,8 @@ class WebFace:
             listen_host=self.host,
             hosts=hosts,
             max_body=max_body_option(options.get("max_body"), "web", DEFAULT_MAX_BODY),
+            programs_dir=str(programs) if programs is not None else None,
+            program_versions=versions,
         )
         self.app = build_app(server, settings)
         self._server: Any = None

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import logging
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -33,10 +34,12 @@ from robostar.serve.http_guard import Refusals
 from robostar.serve.lease import Who
 from robostar.serve.line import Line
 from robostar.serve.line_server import LineServer
+from robostar.serve.programs import DEFAULT_RETENTION, ProgramStore
 from robostar.serve.users import Role, UserStore
 
 __all__ = ["STALE", "Forbidden", "WebDeps", "WebSettings", "deps_of", "needs"]
 
+log = logging.getLogger(__name__)
 _HERE = Path(__file__).parent
 SIGN_IN_ATTEMPTS_PER_ADDRESS = 20
 """Failed sign-ins from one address, whatever the names, in a minute (5 per address and name)."""
@@ -67,9 +70,9 @@ class WebSettings:
     max_body: int = DEFAULT_MAX_BODY
     """The largest request body read, in bytes, on every route but the uploads (which take
     ``limits.MAX_UPLOAD_BODY``: the largest file the N1 protocol carries, and its form)."""
-    state_dir: str | None = None
-    """The server's state folder: the program versions are kept under it (None: in memory)."""
-    program_retention: int = 50
+    programs_dir: str | None = None
+    """Where the program versions are kept (None: in memory, until the server stops)."""
+    program_versions: int = DEFAULT_RETENTION
     """Versions kept per file (the oldest go first)."""
 
 
@@ -105,8 +108,19 @@ class WebDeps:
     transferring: set[str] = field(default_factory=set)
     """Lines with a backup or file download for a browser running: one at a time per line, so
     browsers cannot queue transfer after transfer ahead of the writes of the other faces."""
+    programs: ProgramStore | None = None
+    """The versions of the files the dashboard writes and reads (made from the settings)."""
     extras: dict[str, Any] = field(default_factory=dict)
-    """Services of single pages (the program store), by name."""
+    """Caches of single pages (the XY view's workspaces), by name."""
+
+    def __post_init__(self) -> None:
+        if self.programs is None:
+            self.programs = ProgramStore(self.settings.programs_dir, self.settings.program_versions)
+
+    @property
+    def store(self) -> ProgramStore:
+        assert self.programs is not None
+        return self.programs
 
     @property
     def users(self) -> UserStore:
@@ -176,6 +190,14 @@ class WebDeps:
             yield
         finally:
             self.transferring.discard(line.name)
+
+    def keep(self, line: Line, channel: int, name: object, text: str, who: Who, how: str) -> None:
+        """Keep a file's text as a version (see serve/programs.py). A store that cannot be
+        written (a full disk) is logged: the transfer it records has happened either way."""
+        try:
+            self.store.record(line.name, channel, str(name), text, who, how)
+        except OSError as exc:
+            log.error("programs: %s of %s on %s not kept: %s", how, name, line.name, exc)
 
     async def run(self, line: Line, command: Command[Any], account: Account) -> Any:
         """A state change for ``account``: a free lease is taken for it (see the line)."""

@@ -16,9 +16,17 @@ from robostar.serve.faces.web.auth import Account
 from robostar.serve.faces.web.deps import Forbidden, WebDeps
 from robostar.serve.lease import Who
 from robostar.serve.line import Line
-from robostar.types import ArmForm, CoordSystem, Point, PointFile
+from robostar.serve.programs import program_text, text_of_lines
+from robostar.types import ArmForm, CoordSystem, JobFile, Point, PointFile
 
-__all__ = ["PointChange", "axes_of", "describe_change", "read_points", "write_point"]
+__all__ = [
+    "PointChange",
+    "axes_of",
+    "describe_change",
+    "keep_download",
+    "read_points",
+    "write_point",
+]
 
 
 @dataclass(frozen=True, slots=True)
@@ -49,6 +57,14 @@ async def read_points(line: Line, channel: int, name: FileName) -> PointFile:
     return content
 
 
+def keep_download(
+    deps: WebDeps, line: Line, channel: int, name: FileName, content: object, who: Who
+) -> None:
+    """Keep a file downloaded in joint angles as a version (XY data is not the file's text)."""
+    if isinstance(content, JobFile | PointFile):
+        deps.keep(line, channel, name, program_text(content), who, "download")
+
+
 async def write_point(
     deps: WebDeps,
     line: Line,
@@ -72,9 +88,12 @@ async def write_point(
     points = {**content.points, number: new}
     records = await line.read(ListFiles(channel, "*"), max_age=0)
     job_number = next((r.job_number for r in records if r.name == str(name)), 0)
-    await deps.run(line, UploadFile(channel, name, job_number, point_lines(points)), account)
+    lines = point_lines(points)
+    await deps.run(line, UploadFile(channel, name, job_number, lines), account)
     change = PointChange(channel, name, number, old, new)
-    line.record(describe_change(change, why), Who(account.name, "web"), "ok")
+    who = Who(account.name, "web")
+    line.record(describe_change(change, why), who, "ok")
+    deps.keep(line, channel, name, text_of_lines(lines), who, why)
     return change
 
 

@@ -14,10 +14,22 @@ from robostar.serve.faces.web.pages import (
     health,
     jog,
     login,
+    programs,
     variables,
 )
 
-__all__ = ["ALL", "audit", "cell", "controller", "files", "health", "jog", "login", "variables"]
+__all__ = [
+    "ALL",
+    "audit",
+    "cell",
+    "controller",
+    "files",
+    "health",
+    "jog",
+    "login",
+    "programs",
+    "variables",
+]
 
-ALL = (cell, controller, files, variables, jog, audit, health, login)
+ALL = (cell, controller, files, programs, variables, jog, audit, health, login)
 """Every page, in the order of the navigation."""

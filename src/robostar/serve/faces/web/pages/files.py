@@ -18,7 +18,7 @@ from robostar.errors import RobostarError
 from robostar.protocol.fields import FileName
 from robostar.serve.faces.web.auth import read_form
 from robostar.serve.faces.web.axes import channel_axes
-from robostar.serve.faces.web.deps import Forbidden, deps_of
+from robostar.serve.faces.web.deps import Forbidden, WebDeps, deps_of
 from robostar.serve.faces.web.forms import (
     coordinate,
     file_name,
@@ -28,9 +28,11 @@ from robostar.serve.faces.web.forms import (
     steps,
 )
 from robostar.serve.faces.web.limits import MAX_UPLOAD, upload_too_large
-from robostar.serve.faces.web.points import axes_of, read_points, write_point
+from robostar.serve.faces.web.points import axes_of, keep_download, read_points, write_point
 from robostar.serve.faces.web.views import channels
+from robostar.serve.lease import Who
 from robostar.serve.line import Line
+from robostar.serve.programs import program_text, text_of_lines
 from robostar.serve.users import Role
 from robostar.types import CoordSystem, FileRecord, JobFile, PointFile
 
@@ -93,6 +95,8 @@ async def _file_page(
     deps = deps_of(request)
     with deps.one_transfer(line):
         content = await line.read(DownloadFile(channel, name, coords))
+    if coords is CoordSystem.ANGLE:
+        keep_download(deps, line, channel, name, content, _who(deps, request))
     editor = None
     if isinstance(content, PointFile) and coords is CoordSystem.ANGLE:
         editor = _editor(line, channel, content, request.query_params.get("edit"), entered)
@@ -111,6 +115,10 @@ async def _file_page(
     )
     response.status_code = status
     return response
+
+
+def _who(deps: WebDeps, request: Request) -> Who:
+    return Who(deps.account(request).name, "web")
 
 
 def _editor(
@@ -145,9 +153,10 @@ async def file_download(request: Request) -> Response:
     deps = deps_of(request)
     line = deps.line_of(request)
     channel, name = file_params(request)  # a bad name is a 400 for anyone: nothing sent
-    deps.signed_in(request, line, "file download")
+    account = deps.signed_in(request, line, "file download")
     with deps.one_transfer(line):
         content = await line.read(DownloadFile(channel, name, CoordSystem.ANGLE))
+    keep_download(deps, line, channel, name, content, Who(account.name, "web"))
     return Response(
         file_text(content),
         media_type="text/plain; charset=utf-8",
@@ -199,7 +208,7 @@ async def point_edit(request: Request) -> Response:
 async def backup_zip(request: Request) -> Response:
     deps = deps_of(request)
     line = deps.line_of(request)
-    deps.signed_in(request, line, "backup")
+    who = Who(deps.signed_in(request, line, "backup").name, "web")
     buffer = io.BytesIO()
     with deps.one_transfer(line), zipfile.ZipFile(buffer, "w", zipfile.ZIP_DEFLATED) as archive:
         for channel in channels(line):
@@ -207,6 +216,7 @@ async def backup_zip(request: Request) -> Response:
                 name = FileName.parse(record.name)
                 content = await line.read(DownloadFile(channel, name, CoordSystem.ANGLE))
                 archive.writestr(f"ch{channel}/{name}", file_text(content))
+                deps.keep(line, channel, name, program_text(content), who, "backup")
     stamp = time.strftime("%Y%m%d-%H%M%S")
     return Response(
         buffer.getvalue(),
@@ -264,6 +274,7 @@ async def upload_confirm(request: Request) -> Response:
         raise Forbidden(413, upload_too_large("the content"))
     lines = steps(name, content)
     await deps.run(line, UploadFile(channel, name, job_number, lines), account)
+    deps.keep(line, channel, name, text_of_lines(lines), Who(account.name, "web"), "upload")
     return RedirectResponse(f"/line/{line.name}/files?channel={channel}", status_code=303)
 
 

@@ -392,6 +392,7 @@ document.addEventListener("DOMContentLoaded", () => {
   connect();
   for (const el of document.querySelectorAll(".operator-only")) el.hidden = !may("operator");
   for (const el of document.querySelectorAll(".engineer-only")) el.hidden = !may("engineer");
+  for (const el of document.querySelectorAll(".viewer-only")) el.hidden = !may("viewer");
   document.body.addEventListener("click", (event) => {
     const button = event.target.closest("[data-action]");
     if (button && may("operator")) { event.preventDefault(); act(button); }
