@@ -209,6 +209,13 @@ class ProgramStore:
         except FileNotFoundError:
             raise UsageError(f"programs: no text kept with hash {digest[:10]}") from None
 
+    def lines(self) -> list[str]:
+        """The lines with versions kept."""
+        if self.root is None:
+            return sorted({ln for (ln, _, _) in self._histories})
+        base = self.root / "history"
+        return sorted(p.name for p in base.iterdir() if p.is_dir()) if base.is_dir() else []
+
     def files(self, line: str) -> list[tuple[int, str]]:
         """The (channel, name) of every file of the line with versions kept."""
         if self.root is None:
