@@ -137,13 +137,17 @@ class WebDeps:
         return line
 
     def page(self, request: Request, template: str, /, **context: Any) -> HTMLResponse:
+        from robostar.serve.faces.web.pages.lease import lease_row
+
         account = self.account(request)
+        lines = list(self.server.lines.values())
         return self.templates.TemplateResponse(
             request,
             template,
             {
                 "account": account,
-                "lines": list(self.server.lines.values()),
+                "lines": lines,
+                "leases": [lease_row(line, account) for line in lines],
                 "logins": len(self.users) > 0,
                 **context,
             },

@@ -13,6 +13,7 @@ from robostar.serve.faces.web.pages import (
     files,
     health,
     jog,
+    lease,
     login,
     programs,
     variables,
@@ -26,10 +27,11 @@ __all__ = [
     "files",
     "health",
     "jog",
+    "lease",
     "login",
     "programs",
     "variables",
 ]
 
-ALL = (cell, controller, files, programs, variables, jog, audit, health, login)
+ALL = (cell, controller, files, programs, variables, jog, audit, health, lease, login)
 """Every page, in the order of the navigation."""

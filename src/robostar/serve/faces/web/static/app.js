@@ -254,6 +254,31 @@ function setupPointEditor(form) {
   });
 }
 
+// -- who has control: each line's lease, refreshed; take (free, operators) and release (holder)
+async function refreshLeases() {
+  const response = await fetch("/leases").catch(() => null);
+  if (!response || !response.ok) return;
+  const { leases } = await response.json();
+  for (const l of leases) {
+    const el = document.querySelector(`[data-lease="${CSS.escape(l.line)}"]`);
+    if (!el) continue;
+    el.querySelector(".lease-state").textContent = l.free
+      ? "control free" : `control held by ${l.holder}, ${l.left} s left unless renewed`;
+    el.querySelector(".lease-take").hidden = !l.may_take;
+    el.querySelector(".lease-release").hidden = !l.mine;
+  }
+}
+
+async function leaseAction(button, what) {
+  const line = button.dataset.line;
+  const path = what === "take" ? `/line/${encodeURIComponent(line)}/lease/take` : `/line/${encodeURIComponent(line)}/release`;
+  const response = await fetch(path, { method: "POST", headers: { "x-csrf-token": csrf() } });
+  const answer = await response.json().catch(() => ({ error: response.statusText }));
+  if (!response.ok) toast(`${line}: ${answer.error}`, true);
+  else toast(what === "take" ? `${line}: you have control` : `${line}: control released`);
+  refreshLeases();
+}
+
 // -- the stop at the top of every page: one click, no dialog (a stop must not wait) -----------
 async function stopEverything(button) {
   if (!may("operator")) { toast("Stopping needs an operator: sign in, or use the pendant's emergency stop.", true); return; }
@@ -405,6 +430,9 @@ document.addEventListener("DOMContentLoaded", () => {
   if (teach && may("engineer")) setupTeach(teach);
   setInterval(showAges, 100);
   for (const el of document.querySelectorAll("canvas.xyview")) drawXY(el);
+  for (const b of document.querySelectorAll(".lease-take")) b.addEventListener("click", () => leaseAction(b, "take"));
+  for (const b of document.querySelectorAll(".lease-release")) b.addEventListener("click", () => leaseAction(b, "release"));
+  setInterval(refreshLeases, 2000);
   const pointForm = document.getElementById("point-form");
   if (pointForm) setupPointEditor(pointForm);
   for (const select of document.querySelectorAll(".job-select")) {
