@@ -101,6 +101,12 @@ def test_the_position_panel_follows_a_jog(page: Any, stack: Stack, servo_on: Non
     stopped_at = joints(stack)[0]
     # the panel settles on where the arm stopped
     expect()(cell).to_have_text(f"{stopped_at:.3f}")
+    # the audit: the jog in one summary with how far, and no keepalive entries
+    wait_until(lambda: "jog channel 1 axis 1 +" in stack.audit_path.read_text())
+    entries = [json.loads(text) for text in stack.audit_path.read_text().splitlines()]
+    (summary,) = [e for e in entries if e["what"].startswith("jog channel 1 axis 1 +")]
+    assert f"to {stopped_at:.3f}" in summary["what"] and summary["outcome"] == "stopped: released"
+    assert not any(e["what"].startswith(("JogContinue", "jog keepalive")) for e in entries)
 
 
 def test_inching_moves_by_exactly_one_step(page: Any, stack: Stack, servo_on: None) -> None:

@@ -37,6 +37,7 @@ from robostar.errors import (
     UsageError,
 )
 from robostar.serve.audit import AuditLog
+from robostar.serve.audit_words import describe
 from robostar.serve.config import LineConfig
 from robostar.serve.lease import Lease, LeaseHeldError, LeaseInfo, Who
 from robostar.serve.model import ControllerModel, Quality
@@ -175,7 +176,7 @@ def model_key(command: Command[Any]) -> str | None:
 
 
 def _describe(command: Command[Any]) -> str:
-    return repr(command) if len(repr(command)) <= 200 else f"{command.CODE}(...)"
+    return describe(command)  # in words (serve/audit_words.py)
 
 
 class Line:

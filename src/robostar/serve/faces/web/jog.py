@@ -23,11 +23,11 @@ from typing import Any, Protocol
 
 from robostar.commands.control import SetSpeed
 from robostar.commands.motion import JogContinue, JogStart, JogStop, MoveBy
-from robostar.commands.status import ReadStatus
+from robostar.commands.status import ReadPosition, ReadStatus
 from robostar.errors import RobostarError
 from robostar.serve.lease import Who
 from robostar.serve.line import Line
-from robostar.types import CoordSystem, JogDirection, MotionType
+from robostar.types import CoordSystem, JogDirection, MotionType, PositionKind
 
 __all__ = ["INCH_STEPS", "KEEPALIVE_EVERY", "SILENCE", "JogPanel"]
 
@@ -62,6 +62,8 @@ class JogPanel:
         self._last_bf = 0.0
         self._watchdog: asyncio.Task[None] | None = None
         self._socket: _Socket | None = None
+        self._jog: tuple[JogStart, tuple[float, ...] | None, float] | None = None
+        """The jog running: its command, the joint angles and the time it started."""
 
     async def run(self, socket: _Socket) -> None:
         """Serve the page's messages until the socket closes."""
@@ -106,6 +108,7 @@ class JogPanel:
             return
         self.channel = channel
         self._last_heard = self._last_bf = time.monotonic()
+        self._jog = (command, self._angles(channel), self._last_heard)
         self._watchdog = asyncio.create_task(self._watch(channel))
         await self._tell({"type": "moving", "channel": channel, "axis": axis})
 
@@ -207,6 +210,33 @@ class JogPanel:
         except RobostarError as exc:
             log.warning("jog on %s: BG failed: %s", self.line.name, exc)
         await self._tell({"type": "stopped", "channel": channel, "reason": reason})
+        await self._summarize(channel, reason)
+
+    def _angles(self, channel: int) -> tuple[float, ...] | None:
+        sample = self.line.model.get(f"ch{channel}/angles")
+        return None if sample is None else tuple(sample.value.axes)
+
+    async def _summarize(self, channel: int, reason: str) -> None:
+        """One audit entry for the whole jog: which axis, how far, how long, why it stopped."""
+        if self._jog is None:
+            return
+        command, before, started = self._jog
+        self._jog = None
+        with contextlib.suppress(RobostarError):  # after BG: where the axis came to rest
+            await self.line.read(ReadPosition(channel, PositionKind.ANGLE), max_age=0)
+        after = self._angles(channel)
+        sign = "+" if command.direction == JogDirection.PLUS else "-"
+        what = (
+            f"jog channel {channel} axis {command.axis} {sign} ({command.motion.name.lower()}):"
+            f" {time.monotonic() - started:.1f} s"
+        )
+        if before is not None and after is not None and len(before) >= command.axis:
+            moved = after[command.axis - 1] - before[command.axis - 1]
+            what += (
+                f", axis {command.axis} moved {moved:+.3f} (from {before[command.axis - 1]:.3f}"
+                f" to {after[command.axis - 1]:.3f}, degrees or mm)"
+            )
+        self.line.record(what, self.who, f"stopped: {reason}")
 
     async def _tell(self, message: dict[str, Any]) -> None:
         if self._socket is None:
