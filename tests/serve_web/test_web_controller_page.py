@@ -104,3 +104,17 @@ def test_the_files_page_offers_the_controllers_channels_only(stack: Stack) -> No
         assert "≤ 1 KB" in page  # FD counts in KB: a small file is not "1 KB"
         assert "has no channel 3" in http.get("/line/cell1/files?channel=3").text
         assert "bytes as downloaded" in http.get("/line/cell1/files/1/DEMO.PNT").text
+
+
+def test_the_age_of_a_value_at_rest_is_the_time_since_it_was_read(
+    stack: Stack, client: httpx.Client
+) -> None:
+    """A position that does not change sends no event; its age is since the last read all the
+    same (the poller reads it every 50 ms here), not since it last changed."""
+    import time
+
+    time.sleep(1.5)  # channel 2 at rest: its position unchanged all that time
+    end = time.monotonic() + 10
+    while client.get("/line/cell1/ages").json()["ages"]["ch2/position"] >= 1.0:
+        assert time.monotonic() < end, "the age grows while the value is read again"
+        time.sleep(0.05)

@@ -51,6 +51,14 @@ async def snapshot(request: Request) -> Response:
     return JSONResponse({"line": line.name, "values": values})
 
 
+async def ages(request: Request) -> Response:
+    """How old each of the line's values is now (seconds since it was last read, changed or
+    not): the event stream sends changes only, and a value at rest is read again all the same."""
+    line = deps_of(request).line_of(request)
+    found = {key: round(sample.age, 3) for key, sample in line.model.snapshot().items()}
+    return JSONResponse({"line": line.name, "ages": found})
+
+
 async def _event_stream(request: Request, lines: list[Line]) -> AsyncIterator[str]:
     """One browser's stream: a first snapshot, then every change of its lines' models."""
     subscriptions = [line.model.subscribe(maxsize=500) for line in lines]
@@ -88,4 +96,5 @@ ROUTES: list[BaseRoute] = [
     Route("/events", events),
     Route("/favicon.ico", favicon),
     Route("/line/{line}/snapshot", snapshot),
+    Route("/line/{line}/ages", ages),
 ]

@@ -61,8 +61,6 @@ async def versions(request: Request) -> Response:
     line = deps.line_of(request)
     channel, name = file_params(request)
     deps.signed_in(request, line, "file versions")
-    history = deps.store.versions(line.name, channel, name)
-    numbered = [(len(history) - i, v) for i, v in enumerate(history)]
     query = request.query_params
     a, b = query.get("a"), query.get("b")
     diff = None
@@ -72,6 +70,9 @@ async def versions(request: Request) -> Response:
         new, new_label = await _text(deps, request, line, channel, name, b)
         diff = diff_lines(old, new, old_label, new_label)
         labels = (old_label, new_label)
+    # after the diff: reading the controller's file may have kept a new version
+    history = deps.store.versions(line.name, channel, name)
+    numbered = [(len(history) - i, v) for i, v in enumerate(history)]
     return deps.page(
         request,
         "versions.html",

@@ -157,6 +157,18 @@ function drawXY(el) {
   el.dataset.drawn = String(trail.length);
 }
 
+// a value at rest is read again without a change event: its age comes from /line/NAME/ages
+async function refreshAges() {
+  const lines = new Set([...document.querySelectorAll("[data-age-of]")].map((el) => el.dataset.ageOf.split("/")[0]));
+  for (const line of lines) {
+    const response = await fetch(`/line/${encodeURIComponent(line)}/ages`).catch(() => null);
+    if (!response || !response.ok) continue;
+    const answer = await response.json();
+    const received = performance.now();
+    for (const [key, age] of Object.entries(answer.ages)) ages[`${line}/${key}`] = { age, received };
+  }
+}
+
 function apply(change) {
   const key = `${change.line}/${change.key}`;
   if (typeof change.age === "number") ages[key] = { age: change.age, received: performance.now() };
@@ -429,6 +441,7 @@ document.addEventListener("DOMContentLoaded", () => {
   const teach = document.getElementById("teach");
   if (teach && may("engineer")) setupTeach(teach);
   setInterval(showAges, 100);
+  if (document.querySelector("[data-age-of]")) { refreshAges(); setInterval(refreshAges, 500); }
   for (const el of document.querySelectorAll("canvas.xyview")) drawXY(el);
   for (const b of document.querySelectorAll(".lease-take")) b.addEventListener("click", () => leaseAction(b, "take"));
   for (const b of document.querySelectorAll(".lease-release")) b.addEventListener("click", () => leaseAction(b, "release"));
