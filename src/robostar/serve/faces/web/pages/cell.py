@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import asyncio
 import json
-from collections.abc import AsyncIterator
+import time
+from collections.abc import AsyncIterator, Callable
 from pathlib import Path
 from typing import Any
 
@@ -13,14 +14,15 @@ from starlette.responses import FileResponse, JSONResponse, Response, StreamingR
 from starlette.routing import BaseRoute, Route
 
 from robostar.serve.faces.web.deps import deps_of
+from robostar.serve.faces.web.pages.lease import lease_row
 from robostar.serve.faces.web.views import card, change_json, sample_json
 from robostar.serve.line import Line
 
-__all__ = ["EVENT_KEEPALIVE", "ROUTES"]
+__all__ = ["ROUTES", "STATUS_EVERY"]
 
 _STATIC = Path(__file__).parent.parent / "static"
-EVENT_KEEPALIVE = 15.0
-"""Seconds between SSE comments on a quiet stream, so proxies keep it open."""
+STATUS_EVERY = 0.5
+"""Seconds between the stream's status events (ages, leases); they keep proxies open too."""
 
 
 async def overview(request: Request) -> Response:
@@ -33,8 +35,22 @@ async def events(request: Request) -> Response:
     deps = deps_of(request)
     wanted = request.query_params.get("line")
     lines = [line for line in deps.server.lines.values() if wanted in (None, line.name)]
+    account = deps.account(request)
+
+    def status() -> dict[str, Any]:
+        return {
+            "key": "status",  # every event's data names what it carries
+            "ages": {
+                f"{line.name}/{key}": round(sample.age, 3)
+                for line in lines
+                for key, sample in line.model.snapshot().items()
+                if key.endswith(("/position", "/angles"))
+            },
+            "leases": [lease_row(line, account) for line in deps.server.lines.values()],
+        }
+
     return StreamingResponse(
-        _event_stream(request, lines),
+        _event_stream(request, lines, status),
         media_type="text/event-stream",
         headers={"cache-control": "no-store", "x-accel-buffering": "no"},
     )
@@ -59,8 +75,13 @@ async def ages(request: Request) -> Response:
     return JSONResponse({"line": line.name, "ages": found})
 
 
-async def _event_stream(request: Request, lines: list[Line]) -> AsyncIterator[str]:
-    """One browser's stream: a first snapshot, then every change of its lines' models."""
+async def _event_stream(
+    request: Request, lines: list[Line], status: Callable[[], dict[str, Any]]
+) -> AsyncIterator[str]:
+    """One browser's stream: a first snapshot, then every change of its lines' models, and
+    every :data:`STATUS_EVERY` s a status event: the positions' ages (a value at rest is read
+    again without a change) and who holds each line's lease. On the one connection: a page
+    polls nothing (a browser opens six connections to a server at most)."""
     subscriptions = [line.model.subscribe(maxsize=500) for line in lines]
     merged = asyncio.Queue[str](maxsize=1000)
 
@@ -75,13 +96,17 @@ async def _event_stream(request: Request, lines: list[Line]) -> AsyncIterator[st
         for line in lines:
             for key, sample in line.model.snapshot().items():
                 yield f"event: change\ndata: {json.dumps(change_json(line.name, key, sample))}\n\n"
+        next_status = 0.0
         while True:
-            try:
-                text = await asyncio.wait_for(merged.get(), EVENT_KEEPALIVE)
-            except TimeoutError:
+            now = time.monotonic()
+            if now >= next_status:
                 if await request.is_disconnected():
                     return
-                yield ": keepalive\n\n"
+                next_status = now + STATUS_EVERY
+                yield f"event: status\ndata: {json.dumps(status())}\n\n"
+            try:
+                text = await asyncio.wait_for(merged.get(), next_status - now)
+            except TimeoutError:
                 continue
             yield f"event: change\ndata: {text}\n\n"
     finally:

@@ -157,18 +157,6 @@ function drawXY(el) {
   el.dataset.drawn = String(trail.length);
 }
 
-// a value at rest is read again without a change event: its age comes from /line/NAME/ages
-async function refreshAges() {
-  const lines = new Set([...document.querySelectorAll("[data-age-of]")].map((el) => el.dataset.ageOf.split("/")[0]));
-  for (const line of lines) {
-    const response = await fetch(`/line/${encodeURIComponent(line)}/ages`).catch(() => null);
-    if (!response || !response.ok) continue;
-    const answer = await response.json();
-    const received = performance.now();
-    for (const [key, age] of Object.entries(answer.ages)) ages[`${line}/${key}`] = { age, received };
-  }
-}
-
 function apply(change) {
   const key = `${change.line}/${change.key}`;
   if (typeof change.age === "number") ages[key] = { age: change.age, received: performance.now() };
@@ -184,6 +172,12 @@ function connect() {
   const state = document.getElementById("stream-state");
   const source = new EventSource("/events");
   source.addEventListener("change", (event) => apply(JSON.parse(event.data)));
+  source.addEventListener("status", (event) => {
+    const status = JSON.parse(event.data);
+    const received = performance.now();
+    for (const [key, age] of Object.entries(status.ages)) ages[key] = { age, received };
+    showLeases(status.leases);
+  });
   source.onopen = () => { state.hidden = true; };
   source.onerror = () => { state.hidden = false; };
   window.robostarStream = source;
@@ -269,8 +263,10 @@ function setupPointEditor(form) {
 // -- who has control: each line's lease, refreshed; take (free, operators) and release (holder)
 async function refreshLeases() {
   const response = await fetch("/leases").catch(() => null);
-  if (!response || !response.ok) return;
-  const { leases } = await response.json();
+  if (response && response.ok) showLeases((await response.json()).leases);
+}
+
+function showLeases(leases) {
   for (const l of leases) {
     const el = document.querySelector(`[data-lease="${CSS.escape(l.line)}"]`);
     if (!el) continue;
@@ -441,11 +437,11 @@ document.addEventListener("DOMContentLoaded", () => {
   const teach = document.getElementById("teach");
   if (teach && may("engineer")) setupTeach(teach);
   setInterval(showAges, 100);
-  if (document.querySelector("[data-age-of]")) { refreshAges(); setInterval(refreshAges, 500); }
+
   for (const el of document.querySelectorAll("canvas.xyview")) drawXY(el);
   for (const b of document.querySelectorAll(".lease-take")) b.addEventListener("click", () => leaseAction(b, "take"));
   for (const b of document.querySelectorAll(".lease-release")) b.addEventListener("click", () => leaseAction(b, "release"));
-  setInterval(refreshLeases, 2000);
+
   const pointForm = document.getElementById("point-form");
   if (pointForm) setupPointEditor(pointForm);
   for (const select of document.querySelectorAll(".job-select")) {
