@@ -170,8 +170,10 @@ def main(rounds: int = 60, pages: int = 50) -> dict[str, Any]:
                 "poll_interval_ms": 50,
             }
 
-            context = browser.new_context(base_url=face.url)
-            tabs = [context.new_page() for _ in range(pages)]
+            # one context each: 50 browsers, as 50 devices (one browser keeps six connections
+            # to a server at most, and each page holds one for its event stream)
+            contexts = [browser.new_context(base_url=face.url) for _ in range(pages)]
+            tabs = [context.new_page() for context in contexts]
             for tab in tabs:
                 tab.goto("/line/cell1")
                 tab.wait_for_function(
@@ -190,7 +192,8 @@ def main(rounds: int = 60, pages: int = 50) -> dict[str, Any]:
                 "pages_showing_the_change": len(shown),
                 "seconds_until_the_last_page_shows_it": max(shown),
             }
-            context.close()
+            for context in contexts:
+                context.close()
 
             page.goto("/login")
             page.fill("input[name=username]", "bench")

@@ -59,7 +59,7 @@ const renderers = {
     const now = performance.now();
     const trail = (el._trail = el._trail || []);
     trail.push([value.axes[0], value.axes[1], now]);
-    const view = JSON.parse(el.dataset.view);
+    const view = (el._view = el._view || JSON.parse(el.dataset.view));
     while (trail.length && now - trail[0][2] > view.trail * 1000) trail.shift();
     drawXY(el);
   },
@@ -104,7 +104,7 @@ function niceStep(span) {
 }
 
 function drawXY(el) {
-  const view = JSON.parse(el.dataset.view);
+  const view = (el._view = el._view || JSON.parse(el.dataset.view));
   const trail = el._trail || [];
   const xs = [], ys = [];
   if (view.workspace) { xs.push(view.workspace.box[0], view.workspace.box[2]); ys.push(view.workspace.box[1], view.workspace.box[3]); }
@@ -436,7 +436,7 @@ document.addEventListener("DOMContentLoaded", () => {
   if (panel && may("operator")) setupJog(panel);
   const teach = document.getElementById("teach");
   if (teach && may("engineer")) setupTeach(teach);
-  setInterval(showAges, 100);
+  if (document.querySelector("[data-age-of]")) setInterval(showAges, 250);
 
   for (const el of document.querySelectorAll("canvas.xyview")) drawXY(el);
   for (const b of document.querySelectorAll(".lease-take")) b.addEventListener("click", () => leaseAction(b, "take"));
