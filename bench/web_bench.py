@@ -49,6 +49,9 @@ _WATCH_PANEL = """(el) => { window.panelChanges = []; new MutationObserver(() =>
 def _panel_after_release(page: Any, runs: int = 10) -> dict[str, Any]:
     """How long the jog page's position (axis 4, R) kept changing after the button's release."""
     page.goto("/line/cell1/jog")
+    page.select_option("#jog-speed", "1")  # 1 %: half a second of jog stays inside the limits
+    page.click("#jog-speed-set")
+    page.locator("#jog-state").filter(has_text="Speed of channel 1").wait_for()
     cell = page.locator(
         'table.position[data-channel="1"] [data-key="cell1/ch1/angles"][data-axis="4"]'
     )
@@ -174,7 +177,8 @@ def main(rounds: int = 60, pages: int = 50) -> dict[str, Any]:
             # to a server at most, and each page holds one for its event stream)
             contexts = [browser.new_context(base_url=face.url) for _ in range(pages)]
             tabs = [context.new_page() for context in contexts]
-            for tab in tabs:
+            for number, tab in enumerate(tabs, 1):
+                print(f"page {number} of {pages}", file=sys.stderr, flush=True)
                 tab.goto("/line/cell1")
                 tab.wait_for_function(
                     "() => window.robostarStream && window.robostarStream.readyState === 1"

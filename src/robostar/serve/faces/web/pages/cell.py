@@ -21,7 +21,7 @@ from robostar.serve.line import Line
 __all__ = ["ROUTES", "STATUS_EVERY"]
 
 _STATIC = Path(__file__).parent.parent / "static"
-STATUS_EVERY = 0.5
+STATUS_EVERY = 1.0
 """Seconds between the stream's status events (ages, leases); they keep proxies open too."""
 
 

@@ -266,7 +266,11 @@ async function refreshLeases() {
   if (response && response.ok) showLeases((await response.json()).leases);
 }
 
+let shownLeases = "";
 function showLeases(leases) {
+  const text = JSON.stringify(leases);
+  if (text === shownLeases) return;  // unchanged: no DOM work (the status comes every second)
+  shownLeases = text;
   for (const l of leases) {
     const el = document.querySelector(`[data-lease="${CSS.escape(l.line)}"]`);
     if (!el) continue;
