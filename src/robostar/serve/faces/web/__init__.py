@@ -16,6 +16,8 @@ Options (the ``[web]`` section):
 - ``programs``: the folder where the versions of the JOB and PNT files the dashboard writes and
   reads are kept (default: ``programs`` beside the audit log; without an audit log, in memory);
   ``program_versions``: how many versions of each file are kept (default 50);
+  ``program_check_at``: ``"HH:MM"``, local time, for a daily check of every line's files
+  against their last versions (edits made at the pendant; the result in the audit log);
 - ``max_body``: the largest request body read, in bytes, on every route but the two upload
   routes (default 64 KiB; 413 past it). An upload takes the largest file the N1 protocol carries
   (``limits.MAX_UPLOAD``: 9999 steps of 100 bytes) and its form, whatever this says.
@@ -56,6 +58,7 @@ _KNOWN = frozenset(
         "max_body",
         "programs",
         "program_versions",
+        "program_check_at",
     )
 )
 log = logging.getLogger(__name__)
@@ -70,6 +73,7 @@ class WebFace:
             raise UsageError(f"web: unknown option(s) {', '.join(sorted(unknown))}")
         from robostar.serve.faces.web.app import WebSettings, build_app
         from robostar.serve.faces.web.limits import DEFAULT_MAX_BODY
+        from robostar.serve.faces.web.nightly import parse_time
         from robostar.serve.http_guard import hosts_option, max_body_option
         from robostar.serve.programs import DEFAULT_RETENTION
         from robostar.serve.users import UserStore
@@ -119,6 +123,10 @@ class WebFace:
             program_versions=versions,
         )
         self.app = build_app(server, settings)
+        self.server = server
+        at = options.get("program_check_at")
+        self._nightly_at = None if at is None else parse_time(at)
+        self._nightly: asyncio.Task[None] | None = None
         self._server: Any = None
         self._task: asyncio.Task[None] | None = None
 
@@ -129,6 +137,8 @@ class WebFace:
 
     async def start(self) -> None:
         import uvicorn
+
+        from robostar.serve.faces.web.nightly import run_nightly
 
         config = uvicorn.Config(
             self.app,
@@ -156,8 +166,15 @@ class WebFace:
             sockets = self._server.servers[0].sockets
             self.port = int(sockets[0].getsockname()[1])
         log.info("web dashboard on %s", self.url)
+        if self._nightly_at is not None:
+            store = self.app.state.deps.store
+            self._nightly = asyncio.create_task(run_nightly(self.server, store, self._nightly_at))
 
     async def stop(self) -> None:
+        if self._nightly is not None:
+            self._nightly.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await self._nightly
         if self._server is None or self._task is None:
             return
         self._server.should_exit = True
