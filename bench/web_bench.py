@@ -5,7 +5,12 @@ the web face, and measures with Playwright driving Debian's Chromium:
 
 1. latency from an input changing in the simulator to the page's DOM showing it (p50/p99);
 2. 50 open browser pages' event streams on one line: how many of them show a change, and when;
-3. time from the page's last jog keepalive to the simulator executing BG.
+3. time from the page's last jog keepalive to the simulator executing BG;
+4. the jog page's position panel after a release: how long it still changed (the arm
+   decelerating, the poll, the event stream), over runs;
+5. an inch (one BD of 0.1) from the press to the page saying it moved, and how far the axis went;
+6. the controller page's load time (its XY view reads the channels' KE parameters once a minute);
+7. the program check of every file of the controller (FD, then FA of each).
 
 Prints the figures (and writes ``bench/results/web.json``); nothing is asserted.
 """
@@ -34,6 +39,65 @@ ROOT = Path(__file__).resolve().parent.parent
 def _percentile(values: list[float], share: float) -> float:
     ordered = sorted(values)
     return ordered[min(len(ordered) - 1, int(share * len(ordered)))]
+
+
+_WATCH_PANEL = """(el) => { window.panelChanges = []; new MutationObserver(() =>
+    window.panelChanges.push(performance.now())).observe(el, {childList: true,
+    characterData: true, subtree: true}); }"""
+
+
+def _panel_after_release(page: Any, runs: int = 10) -> dict[str, Any]:
+    """How long the jog page's position (axis 4, R) kept changing after the button's release."""
+    page.goto("/line/cell1/jog")
+    page.select_option("#jog-speed", "1")  # 1 %: half a second of jog stays inside the limits
+    page.click("#jog-speed-set")
+    page.locator("#jog-state").filter(has_text="Speed of channel 1").wait_for()
+    cell = page.locator(
+        'table.position[data-channel="1"] [data-key="cell1/ch1/angles"][data-axis="4"]'
+    )
+    cell.wait_for()
+    after = []
+    for run in range(runs):
+        button = page.locator(f'.jog-btn[data-axis="4"][data-direction="{"+-"[run % 2]}"]')
+        button.dispatch_event("pointerdown")
+        page.locator("#jog-state").filter(has_text="Moving").wait_for()
+        time.sleep(0.4)
+        cell.evaluate(_WATCH_PANEL)
+        released = page.evaluate("() => performance.now()")
+        button.dispatch_event("pointerup")
+        page.locator("#jog-state").filter(has_text="Stopped").wait_for()
+        time.sleep(1.0)
+        changes = page.evaluate("() => window.panelChanges")
+        after.append(max([0.0, *[c - released for c in changes]]))
+    return {"runs": runs, "p50": statistics.median(after), "max": max(after)}
+
+
+def _inches(page: Any, controller: Any, sim: Any, runs: int = 10) -> dict[str, Any]:
+    """Press to "Moved" for an inch of 0.1 on axis 4, and the axis's move each time."""
+    page.goto("/line/cell1/jog")
+    page.check('input[name="jog-step"][value="0.1"]')
+    times, moves = [], []
+    for _ in range(runs):
+        while controller.model.channels[0].moving:
+            time.sleep(0.01)
+        with sim.lock:
+            before = controller.model.channels[0].joints[3]
+        page.evaluate("() => { document.getElementById('jog-state').textContent = ''; }")
+        start_at = time.perf_counter()
+        page.locator('.jog-btn[data-axis="4"][data-direction="+"]').dispatch_event("pointerdown")
+        page.locator("#jog-state").filter(has_text="Moved axis 4").wait_for()
+        times.append(time.perf_counter() - start_at)
+        while controller.model.channels[0].moving:
+            time.sleep(0.01)
+        with sim.lock:
+            moves.append(controller.model.channels[0].joints[3] - before)
+    return {
+        "runs": runs,
+        "press_to_moved_ms_p50": 1000 * statistics.median(times),
+        "press_to_moved_ms_max": 1000 * max(times),
+        "moved_min": min(moves),
+        "moved_max": max(moves),
+    }
 
 
 def main(rounds: int = 60, pages: int = 50) -> dict[str, Any]:
@@ -109,9 +173,12 @@ def main(rounds: int = 60, pages: int = 50) -> dict[str, Any]:
                 "poll_interval_ms": 50,
             }
 
-            context = browser.new_context(base_url=face.url)
-            tabs = [context.new_page() for _ in range(pages)]
-            for tab in tabs:
+            # one context each: 50 browsers, as 50 devices (one browser keeps six connections
+            # to a server at most, and each page holds one for its event stream)
+            contexts = [browser.new_context(base_url=face.url) for _ in range(pages)]
+            tabs = [context.new_page() for context in contexts]
+            for number, tab in enumerate(tabs, 1):
+                print(f"page {number} of {pages}", file=sys.stderr, flush=True)
                 tab.goto("/line/cell1")
                 tab.wait_for_function(
                     "() => window.robostarStream && window.robostarStream.readyState === 1"
@@ -129,7 +196,8 @@ def main(rounds: int = 60, pages: int = 50) -> dict[str, Any]:
                 "pages_showing_the_change": len(shown),
                 "seconds_until_the_last_page_shows_it": max(shown),
             }
-            context.close()
+            for context in contexts:
+                context.close()
 
             page.goto("/login")
             page.fill("input[name=username]", "bench")
@@ -157,6 +225,30 @@ def main(rounds: int = 60, pages: int = 50) -> dict[str, Any]:
                 "p50": 1000 * statistics.median(gaps),
                 "max": 1000 * max(gaps),
                 "silence_limit_ms": 300,
+            }
+            results["panel_after_release_ms"] = _panel_after_release(page)
+            with sim.lock:
+                controller.model.channels[0].origin = True
+            results["inch"] = _inches(page, controller, sim)
+            loads = []
+            for _ in range(10):
+                start_at = time.perf_counter()
+                page.goto("/line/cell1")
+                page.locator("canvas.xyview").first.wait_for()
+                loads.append(time.perf_counter() - start_at)
+            results["controller_page_load_ms"] = {
+                "runs": len(loads),
+                "first": 1000 * loads[0],
+                "p50_of_the_rest": 1000 * statistics.median(loads[1:]),
+            }
+            page.goto("/line/cell1/files")
+            start_at = time.perf_counter()
+            page.click("#check-form button[type=submit]")
+            page.locator("table.check").wait_for()
+            files = page.locator("table.check tr[class^=drift]").count()
+            results["program_check"] = {
+                "files": files,
+                "seconds": time.perf_counter() - start_at,
             }
             browser.close()
 

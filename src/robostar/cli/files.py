@@ -610,3 +610,137 @@ def _diff_view(diff: RestoreDiff, folder: str) -> RenderableType:
         )
     )
     return Group(*parts)
+
+
+# -- programs under change control (the line server's version store) ----------------------------
+def _store(store_dir: str | None) -> Any:
+    from robostar.serve.config import default_audit_path
+    from robostar.serve.programs import ProgramStore
+
+    root = Path(store_dir) if store_dir else default_audit_path().parent / "programs"
+    if not root.is_dir():
+        raise UsageError(
+            f"no program versions in {root}: the line server keeps them beside its audit log "
+            "(give the folder with --store)"
+        )
+    return ProgramStore(root)
+
+
+def _store_line(store: Any, line: str | None) -> str:
+    known: list[str] = store.lines()
+    if line is not None:
+        if line not in known:
+            raise UsageError(f"--line {line}: no versions kept for it (lines: {', '.join(known)})")
+        return line
+    if len(known) != 1:
+        raise UsageError(f"give --line: versions are kept for {', '.join(known) or 'no line'}")
+    return known[0]
+
+
+_STORE_OPTIONS = (
+    click.option("--line", "line_name", help="The line (default: the only one with versions)."),
+    click.option(
+        "--store",
+        "store_dir",
+        type=click.Path(file_okay=False),
+        help="The line server's programs folder (default: beside its default audit log).",
+    ),
+)
+
+
+def _store_options(func: Any) -> Any:
+    for option in reversed(_STORE_OPTIONS):
+        func = option(func)
+    return func
+
+
+@files.command("history")
+@click.argument("name")
+@_store_options
+@common_options(channel=True)
+@pass_session
+def files_history(
+    session: ConsoleSession, name: str, line_name: str | None, store_dir: str | None
+) -> None:
+    """The versions the line server kept of file NAME: when, who, how, size and hash.
+
+    \b
+    Example:
+      robostar files history DEMO.JOB --line cell1
+    """
+    import time
+
+    file = _name(name)
+    store = _store(store_dir)
+    line = _store_line(store, line_name)
+    versions = store.versions(line, session.channel, file)
+    rows = [
+        {"version": len(versions) - i, **{k: getattr(v, k) for k in v.__slots__}}
+        for i, v in enumerate(versions)
+    ]
+    table = Table(title=f"{file} on {line}, channel {session.channel}")
+    for column in ("Version", "When", "Who", "How", "Bytes", "SHA-256"):
+        table.add_column(column)
+    for row, v in zip(rows, versions, strict=True):
+        when = time.strftime("%Y-%m-%d %H:%M:%S", time.localtime(v.at))
+        table.add_row(
+            f"v{row['version']}", when, f"{v.who} ({v.face})", v.how, str(v.size), v.short
+        )
+    shown: RenderableType = table
+    if not versions:
+        shown = Text(f"No versions of {file} kept for {line} channel {session.channel}.")
+    session.out.result({"name": str(file), "line": line, "versions": rows}, shown)
+
+
+@files.command("diff")
+@click.argument("name")
+@click.argument("old", required=False, default="-2")
+@click.argument("new", required=False, default="-1")
+@click.option(
+    "--current",
+    is_flag=True,
+    help="Compare the last version with the file on the controller now (reads it over --port).",
+)
+@_store_options
+@common_options(channel=True)
+@pass_session
+def files_diff(
+    session: ConsoleSession,
+    name: str,
+    old: str,
+    new: str,
+    current: bool,
+    line_name: str | None,
+    store_dir: str | None,
+) -> None:
+    """A line diff of two kept versions of NAME (numbers from `files history`, negative from
+    the newest, or hash prefixes; default: the last two), or with --current of the last
+    version and the controller's file now.
+
+    \b
+    Example:
+      robostar files diff DEMO.JOB 3 5 --line cell1
+      robostar --port tcp://10.0.0.5:20000 files diff DEMO.JOB --current
+    """
+    from robostar.serve.programs import diff_lines
+
+    file = _name(name)
+    store = _store(store_dir)
+    line = _store_line(store, line_name)
+    if current:
+        last = store.find(line, session.channel, file, "-1")
+        old_text, old_label = store.text(last.hash), f"version {last.short}"
+        if file.is_job:
+            content: JobFile | PointFile = session.client.download_job(session.channel, file)
+        else:
+            content = session.client.download_points(session.channel, file, coords="angle")
+        new_text = "".join(f"{line}\n" for line in file_lines(content))
+        new_label = "on the controller now"
+    else:
+        a = store.find(line, session.channel, file, old)
+        b = store.find(line, session.channel, file, new)
+        old_text, old_label = store.text(a.hash), f"version {a.short}"
+        new_text, new_label = store.text(b.hash), f"version {b.short}"
+    diff = diff_lines(old_text, new_text, old_label, new_label)
+    shown = Text("\n".join(diff)) if diff else Text("No differences.")
+    session.out.result({"name": str(file), "old": old_label, "new": new_label, "diff": diff}, shown)

@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import IO
 
 from robostar.errors import RobostarError
+from robostar.serve.audit_words import is_routine
 
 __all__ = ["AuditError", "AuditLog"]
 
@@ -96,7 +97,10 @@ class AuditLog:
 
     def write(self, *, line: str, who: str, face: str, what: str, outcome: str) -> None:
         """Append one entry. Never raises: a failed write is logged with the whole entry and
-        leaves :attr:`failure` set (see :meth:`ready`)."""
+        leaves :attr:`failure` set (see :meth:`ready`). Routine entries (a jog's keepalive that
+        went through: :func:`audit_words.is_routine`) are not written."""
+        if is_routine(what, outcome):
+            return
         self.records += 1
         if self.path is None:
             return

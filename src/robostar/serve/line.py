@@ -35,6 +35,7 @@ from robostar.errors import (
     UsageError,
 )
 from robostar.serve.audit import AuditLog
+from robostar.serve.audit_words import describe
 from robostar.serve.config import LineConfig
 from robostar.serve.jog_guard import JogGuard
 from robostar.serve.lease import (
@@ -99,7 +100,7 @@ _BACKOFF = (0.2, 0.5, 1.0, 2.0, 5.0, 10.0)
 
 
 def _describe(command: Command[Any]) -> str:
-    return repr(command) if len(repr(command)) <= 200 else f"{command.CODE}(...)"
+    return describe(command)  # in words (serve/audit_words.py)
 
 
 class Line:

@@ -45,5 +45,5 @@ def test_an_upload_from_an_n1_session_without_the_lease_is_refused_before_its_li
     assert max(b_sent or [0]) == 0  # not one line crossed the wire
     assert max(a_sent) == len(BODY)  # the holder's own upload goes through
     entries = [json.loads(raw) for raw in path.read_text().splitlines()]
-    refused = [e for e in entries if "UploadFile" in e["what"] and "stem='B'" in e["what"]]
+    refused = [e for e in entries if "UploadFile" in e["what"] and "file=B.JOB" in e["what"]]
     assert len(refused) == 1 and refused[0]["outcome"].startswith("refused: ")

@@ -13,6 +13,11 @@ Options (the ``[web]`` section):
 - ``hosts``: host names the dashboard answers to besides its listen address (and, on loopback,
   ``localhost``/``127.0.0.1``/``::1``): the names a reverse proxy passes on in ``Host``. Any
   other ``Host`` gets a 400 (DNS rebinding);
+- ``programs``: the folder where the versions of the JOB and PNT files the dashboard writes and
+  reads are kept (default: ``programs`` beside the audit log; without an audit log, in memory);
+  ``program_versions``: how many versions of each file are kept (default 50);
+  ``program_check_at``: ``"HH:MM"``, local time, for a daily check of every line's files
+  against their last versions (edits made at the pendant; the result in the audit log);
 - ``max_body``: the largest request body read, in bytes, on every route but the two upload
   routes (default 64 KiB; 413 past it). An upload takes the largest file the N1 protocol carries
   (``limits.MAX_UPLOAD``: 9999 steps of 100 bytes) and its form, whatever this says.
@@ -51,6 +56,9 @@ _KNOWN = frozenset(
         "behind_proxy",
         "hosts",
         "max_body",
+        "programs",
+        "program_versions",
+        "program_check_at",
     )
 )
 log = logging.getLogger(__name__)
@@ -65,7 +73,9 @@ class WebFace:
             raise UsageError(f"web: unknown option(s) {', '.join(sorted(unknown))}")
         from robostar.serve.faces.web.app import WebSettings, build_app
         from robostar.serve.faces.web.limits import DEFAULT_MAX_BODY
+        from robostar.serve.faces.web.nightly import parse_time
         from robostar.serve.http_guard import hosts_option, max_body_option
+        from robostar.serve.programs import DEFAULT_RETENTION
         from robostar.serve.users import UserStore
 
         self.host, self.port = _listen(str(options.get("listen", DEFAULT_LISTEN)))
@@ -95,6 +105,12 @@ class WebFace:
         users_path = options.get("users")
         self.users = UserStore(str(users_path) if users_path is not None else None)
         audit = getattr(server.config, "audit_path", None)
+        programs = options.get("programs")
+        if programs is None and audit is not None:
+            programs = Path(str(audit)).parent / "programs"
+        versions = options.get("program_versions", DEFAULT_RETENTION)
+        if isinstance(versions, bool) or not isinstance(versions, int) or versions < 1:
+            raise UsageError(f"web: program_versions {versions!r} is not a whole number >= 1")
         self.settings = settings = WebSettings(
             users=self.users,
             secret=_secret(options.get("secret_file")),
@@ -103,8 +119,14 @@ class WebFace:
             listen_host=self.host,
             hosts=hosts,
             max_body=max_body_option(options.get("max_body"), "web", DEFAULT_MAX_BODY),
+            programs_dir=str(programs) if programs is not None else None,
+            program_versions=versions,
         )
         self.app = build_app(server, settings)
+        self.server = server
+        at = options.get("program_check_at")
+        self._nightly_at = None if at is None else parse_time(at)
+        self._nightly: asyncio.Task[None] | None = None
         self._server: Any = None
         self._task: asyncio.Task[None] | None = None
 
@@ -115,6 +137,8 @@ class WebFace:
 
     async def start(self) -> None:
         import uvicorn
+
+        from robostar.serve.faces.web.nightly import run_nightly
 
         config = uvicorn.Config(
             self.app,
@@ -142,8 +166,15 @@ class WebFace:
             sockets = self._server.servers[0].sockets
             self.port = int(sockets[0].getsockname()[1])
         log.info("web dashboard on %s", self.url)
+        if self._nightly_at is not None:
+            store = self.app.state.deps.store
+            self._nightly = asyncio.create_task(run_nightly(self.server, store, self._nightly_at))
 
     async def stop(self) -> None:
+        if self._nightly is not None:
+            self._nightly.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await self._nightly
         if self._server is None or self._task is None:
             return
         self._server.should_exit = True

@@ -2,13 +2,26 @@
 
 from __future__ import annotations
 
+import time
 from typing import Any
 
 from robostar.serve.jsonable import jsonable
+from robostar.serve.line import Line
 from robostar.serve.model import Quality, Sample
 from robostar.types import PositionKind, RobotType
 
-__all__ = ["axis_unit", "change_json", "sample_json"]
+__all__ = [
+    "axis_unit",
+    "card",
+    "change_json",
+    "channels",
+    "clock",
+    "detail",
+    "health_row",
+    "job_name",
+    "robot_of",
+    "sample_json",
+]
 
 
 def sample_json(sample: Sample | None) -> dict[str, Any]:
@@ -19,7 +32,9 @@ def sample_json(sample: Sample | None) -> dict[str, Any]:
 
 
 def change_json(line: str, key: str, sample: Sample) -> dict[str, Any]:
-    return {"line": line, "key": key, **sample_json(sample)}
+    """A change as the event stream sends it, with the value's ``age`` in seconds now (the
+    page adds the time since it arrived: no clock of the browser's is trusted)."""
+    return {"line": line, "key": key, **sample_json(sample), "age": round(sample.age, 3)}
 
 
 def axis_unit(kind: PositionKind, axis: int, robot: RobotType | None) -> str:
@@ -34,3 +49,105 @@ def axis_unit(kind: PositionKind, axis: int, robot: RobotType | None) -> str:
     if kind is PositionKind.ANGLE and robot is RobotType.SCARA and axis in (1, 2):
         return "°"
     return "mm"
+
+
+def job_name(value: object, empty: str = "—") -> str:
+    """A job's name as the model's JSON holds it (``{"stem", "extension"}``) in words."""
+    if isinstance(value, dict) and "stem" in value:
+        return f"{value['stem']}.{value.get('extension', 'JOB')}"
+    return empty if value is None or value == "" else str(value)
+
+
+def clock(at: object) -> object:
+    """An audit entry's ``time.time()`` as local date and time."""
+    if isinstance(at, int | float):
+        return time.strftime("%Y-%m-%d %H:%M:%S", time.localtime(at))
+    return at
+
+
+def channels(line: Line) -> list[int]:
+    """The channels to show and back up: the configured ones, else those the controller has
+    (a channel AD reports NOT_DEFINED, with no axes, is none); all three until AD answered."""
+    if line.config.channels or line.info is not None:
+        return list(line.channels())
+    return [1, 2, 3]
+
+
+def robot_of(line: Line, channel: int) -> RobotType | None:
+    info = line.model.get("info")
+    if info is None:
+        return None
+    for entry in getattr(info.value, "channels", ()):
+        if entry.channel == channel:
+            robot: RobotType = entry.robot_type
+            return robot
+    return None
+
+
+def card(line: Line) -> dict[str, Any]:
+    """What an overview card shows of a line: online, and per channel the lamps and the job."""
+    model = line.model
+    names = getattr(line.config, "channels", {}) or {}
+    shown = []
+    for channel in channels(line):
+        prefix = f"ch{channel}/"
+        shown.append(
+            {
+                "number": channel,
+                "name": names.get(channel, f"channel {channel}"),
+                "status": sample_json(model.get(prefix + "status")),
+                "job": sample_json(model.get(prefix + "job")),
+                "step": sample_json(model.get(prefix + "step")),
+                "speed": sample_json(model.get(prefix + "speed")),
+            }
+        )
+    return {
+        "name": line.name,
+        "online": sample_json(model.get("online")),
+        "alarms": sample_json(model.get("alarms")),
+        "channels": shown,
+    }
+
+
+def detail(line: Line) -> dict[str, Any]:
+    """The controller page beyond the card: positions with units, I/O, alarm history."""
+    model = line.model
+    axes = {}
+    for channel in channels(line):
+        robot = robot_of(line, channel)
+        position = model.get(f"ch{channel}/position")
+        values = list(position.value.axes) if position is not None else []
+        axes[channel] = [
+            {"axis": i + 1, "value": v, "unit": axis_unit(PositionKind.XY, i + 1, robot)}
+            for i, v in enumerate(values)
+        ]
+    ports = []
+    for port in range(5):
+        inputs, outputs = model.get(f"io/in/{port}"), model.get(f"io/out/{port}")
+        if inputs is None and outputs is None:
+            continue
+        ports.append({"port": port, "in": sample_json(inputs), "out": sample_json(outputs)})
+    return {
+        "info": sample_json(model.get("info")),
+        "axes": axes,
+        "ports": ports,
+        "history": sample_json(model.get("alarm_history")),
+    }
+
+
+def health_row(line: Line) -> dict[str, Any]:
+    health = line.health
+    latency = None if health.latency is None else f"{1000 * health.latency:.1f} ms"
+    age = health.poll_age
+    return {
+        "name": line.name,
+        "url": line.config.url,
+        "up": health.up,
+        "last error": health.last_error or "—",
+        "last exchange": latency or "—",
+        "exchanges": health.exchanges,
+        "errors": health.errors,
+        "reconnects": health.reconnects,
+        "last poll": "—" if age is None else f"{age:.1f} s ago",
+        "lease": str(line.lease.holder.who) if line.lease.holder else "free",
+    }

@@ -1,0 +1,83 @@
+"""Running the cell from the controller page in Chromium: Home per channel, selecting a job from
+the channel's JOB files (by name and number), a step in step mode and a stop, each confirmed."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Iterator
+from typing import Any
+
+import pytest
+from web_harness import PASSWORDS, Stack
+
+
+@pytest.fixture
+def page(chromium: Any, stack: Stack) -> Iterator[Any]:
+    context = chromium.new_context(base_url=stack.url)
+    tab = context.new_page()
+    tab.set_default_timeout(10_000)
+    try:
+        yield tab
+    finally:
+        context.close()
+
+
+def sign_in(page: Any, user: str) -> None:
+    page.goto("/login")
+    page.fill("input[name=username]", user)
+    page.fill("input[name=password]", PASSWORDS[user])
+    page.click("form.login button[type=submit]")
+    page.wait_for_url("**/")
+
+
+def expect() -> Any:
+    from playwright.sync_api import expect as playwright_expect
+
+    return playwright_expect
+
+
+def wait_until(check: Any, timeout: float = 10.0) -> None:
+    end = time.monotonic() + timeout
+    while not check():
+        assert time.monotonic() < end, "condition not met in time"
+        time.sleep(0.02)
+
+
+def confirm(page: Any, text: str) -> None:
+    page.locator("#confirm").wait_for(state="visible")
+    assert text in page.locator("#confirm-text").inner_text()
+    page.click("#confirm-ok")
+
+
+def test_home_then_select_a_job_and_step_it(page: Any, stack: Stack) -> None:
+    sign_in(page, "olga")
+    page.goto("/line/cell1")
+    card = page.locator(".channel-card[data-channel='1']")
+    homes = stack.in_sim(lambda c: c.executions["BA"])
+    card.locator('button[data-action="home"]').click()
+    confirm(page, "Home channel 1")
+    wait_until(lambda: stack.in_sim(lambda c: c.model.channels[0].origin))
+    assert stack.in_sim(lambda c: c.executions["BA"]) == homes + 1
+    wait_until(lambda: not stack.in_sim(lambda c: c.model.channels[0].moving))
+
+    select = card.locator(".job-select")
+    select.focus()
+    expect()(select.locator("option", has_text="1: DEMO.JOB")).to_have_count(1)
+    select.select_option("DEMO.JOB")
+    card.locator('button[data-action="job_select"]').click()
+    confirm(page, "Select DEMO.JOB on channel 1?")
+    wait_until(lambda: str(stack.in_sim(lambda c: c.model.channels[0].job_name)) == "DEMO.JOB")
+    expect()(card.locator('[data-key="cell1/ch1/job"]')).to_contain_text("DEMO")
+
+    card.locator('button[data-action="job_step"]').click()
+    confirm(page, "Run one step")
+    wait_until(lambda: stack.in_sim(lambda c: c.executions["CC"]) >= 1)
+    card.locator('button[data-action="job_stop"]').click()
+    confirm(page, "Stop the job")
+    wait_until(lambda: not stack.in_sim(lambda c: c.model.channels[0].running))
+    card.locator('button[data-action="job_auto"]').click()
+    confirm(page, "auto mode")
+    expect()(page.locator("#toast")).to_contain_text("job_auto: done")
+    entries = stack.audit_path.read_text(encoding="utf-8")
+    assert '"who": "olga"' in entries and "SelectJob" in entries and "Home" in entries
+    stack.in_sim(lambda c: setattr(c.model.channels[0], "servo", False))
