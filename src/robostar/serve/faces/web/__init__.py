@@ -32,7 +32,7 @@ import contextlib
 import logging
 import os
 import secrets
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -127,6 +127,7 @@ class WebFace:
         at = options.get("program_check_at")
         self._nightly_at = None if at is None else parse_time(at)
         self._nightly: asyncio.Task[None] | None = None
+        self._unobserve: list[Callable[[], None]] = []
         self._server: Any = None
         self._task: asyncio.Task[None] | None = None
 
@@ -166,11 +167,17 @@ class WebFace:
             sockets = self._server.servers[0].sockets
             self.port = int(sockets[0].getsockname()[1])
         log.info("web dashboard on %s", self.url)
+        from robostar.serve.faces.web.transfers import observe_transfers
+
+        store = self.app.state.deps.store
+        self._unobserve = [observe_transfers(line, store) for line in self.server.lines.values()]
         if self._nightly_at is not None:
-            store = self.app.state.deps.store
             self._nightly = asyncio.create_task(run_nightly(self.server, store, self._nightly_at))
 
     async def stop(self) -> None:
+        for unobserve in self._unobserve:
+            unobserve()
+        self._unobserve = []
         if self._nightly is not None:
             self._nightly.cancel()
             with contextlib.suppress(asyncio.CancelledError):
