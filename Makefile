@@ -58,6 +58,7 @@ reliability: $(STAMP)
 	$(BIN)/python reliability/run.py fuzz --engine atheris --inputs 1000000
 	$(BIN)/python reliability/run.py matrix
 	$(BIN)/python reliability/run.py soak --exchanges 1000000
+	$(BIN)/python reliability/run.py history --ops 100000 --seeds 1 2 3
 	$(BIN)/python reliability/run.py table
 
 clean:

@@ -42,6 +42,7 @@ from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TextIO
 
+from robostar.protocol.fields import FileName
 from robostar.sim.filesystem import StoredJob, StoredPoints
 
 if TYPE_CHECKING:
@@ -61,6 +62,8 @@ def jsonable(value: Any) -> Any:
         return value.name
     if isinstance(value, bool | int | float | str) or value is None:
         return value
+    if isinstance(value, FileName):
+        return str(value)
     if dataclasses.is_dataclass(value) and not isinstance(value, type):
         return {f.name: jsonable(getattr(value, f.name)) for f in dataclasses.fields(value)}
     if isinstance(value, dict):
