@@ -39,7 +39,17 @@ from robostar.errors import (
 from robostar.serve.audit import AuditLog
 from robostar.serve.config import LineConfig
 from robostar.serve.lease import Lease, LeaseHeldError, LeaseInfo, Who
+from robostar.serve.line_queue import (
+    PRI_KEEPALIVE,
+    PRI_LATE_POLL,
+    PRI_POLL,
+    PRI_READ,
+    PRI_STOP,
+    PRI_WRITE,
+)
+from robostar.serve.line_queue import Job as _Job
 from robostar.serve.model import ControllerModel, Quality
+from robostar.serve.reads import ReadFlights
 from robostar.types import ControllerInfo, PositionKind
 
 __all__ = [
@@ -61,10 +71,6 @@ STOPS = (EmergencyStop, StopJob, StopHoming, JogStop)
 _TRANSFERS = (UploadFile, DownloadFile, ReadAlarmHistory)
 """Long multi-packet exchanges a stop cancels rather than waits for."""
 
-PRI_STOP, PRI_KEEPALIVE, PRI_WRITE, PRI_LATE_POLL, PRI_READ, PRI_POLL = range(6)
-"""Queue order. The poller's reads come last, unless the model has gone unrefreshed for
-:func:`stale_after`: then they go before the consumers' reads (PRI_LATE_POLL), so that no
-number of readers can starve it."""
 _STEADY_KEYS = frozenset(("info", "online"))
 """Model values set when the line opens or closes, not by the poller."""
 MAX_QUEUED_READS = 256
@@ -137,17 +143,6 @@ class LineHealth:
         return None if self.last_poll is None else max(0.0, time.time() - self.last_poll)
 
 
-@dataclass(order=True)
-class _Job:
-    priority: int
-    seq: int
-    command: Command[Any] = field(compare=False)
-    future: asyncio.Future[Any] = field(compare=False)
-    who: Who | None = field(compare=False, default=None)
-    started: bool = field(compare=False, default=False)
-    """The worker took it: its request may be on the wire."""
-
-
 def model_key(command: Command[Any]) -> str | None:
     """The model key that answers ``command`` (a read), or None if the model cannot."""
     match command:
@@ -213,6 +208,8 @@ class Line:
         line reopens (by :func:`model_key`, else the command's code)."""
         self._poll_now = asyncio.Event()
         self._reads_waiting = 0
+        self.reads = ReadFlights(self._enqueue_shared, self._answered)
+        """The line's reads, coalesced: consumers' and the poller's alike."""
         self._written = False
         self.info: ControllerInfo | None = None
         self.lease.on_lost.append(self._lease_lost)
@@ -321,28 +318,42 @@ class Line:
     async def read(
         self, command: Command[R], *, max_age: float | None = None, who: Who | None = None
     ) -> R:
-        """Answer a read from the model when fresh enough, else from the line (and store it).
-        ``who`` (optional) lets :meth:`withdraw` take the read out of the queue."""
+        """The answer to ``command`` (a read).
+
+        Without ``max_age`` the read is linearizable: it is answered by a wire exchange that
+        began after it arrived, shared with identical reads waiting with it (never one already
+        on the wire: see :mod:`robostar.serve.reads`). With ``max_age`` (seconds) a model value
+        at most that old, and newer than the last state change, answers it without an exchange;
+        :meth:`read_sample` gives that value's age too. ``who`` (optional) lets
+        :meth:`withdraw` take the read out of the queue."""
+        value, _ = await self.read_sample(command, max_age=max_age, who=who)
+        return value
+
+    async def read_sample(
+        self, command: Command[R], *, max_age: float | None = None, who: Who | None = None
+    ) -> tuple[R, float]:
+        """:meth:`read`, with the oldest ``time.time()`` its answer may describe the controller
+        at: a model value's time, or the start of the exchange that answered (after the read
+        arrived)."""
         if command.CHANGES_STATE:
             raise UsageError(f"{command.CODE} changes state: use execute(), with a lease holder")
-        limit = self.config.max_age if max_age is None else max_age
-        if limit is None:
-            limit = self.config.poll_interval * 2
-        cached = self._from_model(command, limit)
-        if cached is not None:
-            return cast(R, cached[0])
+        if max_age is not None:
+            cached = self._from_model(command, max_age)
+            if cached is not None:
+                return cast(R, cached[0]), cached[1]
         if self._reads_waiting >= MAX_QUEUED_READS:
             raise LineBusyError(
                 f"line {self.name}: {self._reads_waiting} reads are waiting for the line;"
                 " nothing was sent, try again shortly"
             )
+        self._check_open()
+        command.encode()  # bad input fails here, before it waits in the queue
         self._reads_waiting += 1
         try:
-            result = await self._submit(command, PRI_READ, who)
+            result, began = await self.reads.read(command, PRI_READ, who)
         finally:
             self._reads_waiting -= 1
-        self._store(command, result)
-        return result
+        return cast(R, result), began
 
     # -- the queue -------------------------------------------------------------------------
     async def _submit(self, command: Command[R], priority: int, who: Who | None) -> R:
@@ -363,6 +374,11 @@ class Line:
         """Queue ``command``; its future gets the result. A job whose future is done (e.g.
         cancelled) before the worker reaches it is skipped."""
         return cast("asyncio.Future[R]", self._enqueue_job(command, priority, who).future)
+
+    def _enqueue_shared(self, command: Command[Any], priority: int) -> _Job:
+        """A read flight's job (its readers' ``who`` are the flight's, see :meth:`withdraw`)."""
+        self._check_open()
+        return self._enqueue_job(command, priority, None)
 
     def _enqueue_job(self, command: Command[Any], priority: int, who: Who | None) -> _Job:
         """:meth:`_enqueue`, giving the job (whether it has started is known by it)."""
@@ -402,7 +418,14 @@ class Line:
                 withdrawn += 1
         for job in kept:
             self._queue.put_nowait(job)
-        return withdrawn
+
+        def withdrawn_read(command: Command[Any]) -> WithdrawnError:
+            return WithdrawnError(
+                f"line {self.name}: {command.CODE} withdrawn before it was sent ({why});"
+                " nothing was sent"
+            )
+
+        return withdrawn + self.reads.withdraw(who, withdrawn_read)
 
     def _fail_queued(self, error: BaseException) -> None:
         while not self._queue.empty():
@@ -450,6 +473,7 @@ class Line:
         job.started = True
         self._aborted_by = None
         started = time.perf_counter()
+        job.began = time.time()
         done: list[tuple[int, int | None]] = [(0, None)]
 
         def progress(count: int, total: int | None) -> None:
@@ -493,6 +517,10 @@ class Line:
             raise
         except RobostarError as exc:
             self._count(started, error=True)
+            if job.command.CHANGES_STATE:
+                # refused or of unknown outcome, it may still have changed something (a BC past
+                # the soft limits raises an alarm): no value read before it may answer now
+                self._state_changed()
             await self._line_trouble(exc)  # first: the waiter then sees the line as it is
             if not job.future.done():
                 job.future.set_exception(exc)
@@ -508,11 +536,16 @@ class Line:
         self._timeouts = 0
         self._count(started, error=False)
         if job.command.CHANGES_STATE:
-            self.model.invalidate()
-            self._written = True
-            self._poll_now.set()  # subscribers see the effect of a write at once
+            self._state_changed()
         if not job.future.done():
             job.future.set_result(result)
+
+    def _state_changed(self) -> None:
+        """A state change went out: the model is not vouched for until read again, and the
+        poller reads it all again at once, so subscribers see the effect promptly."""
+        self.model.invalidate()
+        self._written = True
+        self._poll_now.set()
 
     def _count(self, started: float, *, error: bool) -> None:
         elapsed = time.perf_counter() - started
@@ -617,26 +650,35 @@ class Line:
         self.audit.write(line=self.name, who=who.name, face=who.face, what=what, outcome=outcome)
 
     # -- the model -------------------------------------------------------------------------
-    def _from_model(self, command: Command[Any], max_age: float) -> tuple[Any] | None:
+    def _from_model(self, command: Command[Any], max_age: float) -> tuple[Any, float] | None:
+        """The model's answer to ``command`` and its time, if good and at most ``max_age`` old."""
         if isinstance(command, ReadStatus):
             samples = [self.model.fresh(f"ch{n}/status", max_age) for n in (1, 2, 3)]
             if all(s is not None for s in samples):
-                return (tuple(s.value for s in samples if s is not None),)
+                good = [s for s in samples if s is not None]
+                return tuple(s.value for s in good), min(s.at for s in good)
             return None
         key = model_key(command)
         if key is None:
             return None
         sample = self.model.fresh(key, max_age)
-        return None if sample is None else (sample.value,)
+        return None if sample is None else (sample.value, sample.at)
 
-    def _store(self, command: Command[Any], result: Any) -> None:
+    def _answered(self, command: Command[Any], result: Any, began: float) -> None:
+        """A read flight's answer (a consumer's or the poller's): into the model, stamped with
+        the start of its exchange (the oldest instant it may describe)."""
+        self._store(command, result, began)
+
+    def _store(self, command: Command[Any], result: Any, at: float | None = None) -> None:
+        if at is not None and math.isnan(at):
+            at = None
         if isinstance(command, ReadStatus):
             for n, status in enumerate(result, start=1):
-                self.model.set(f"ch{n}/status", status)
+                self.model.set(f"ch{n}/status", status, at)
             return
         key = model_key(command)
         if key is not None:
-            self.model.set(key, result)
+            self.model.set(key, result, at)
 
     def channels(self) -> tuple[int, ...]:
         """The channels the poller reads: the configured ones, else those the controller has."""
@@ -707,7 +749,7 @@ class Line:
         if key in self._unsupported:
             return
         try:
-            result = await self._poll_read(command)
+            await self._poll_read(command)
         except NotSupportedError as exc:
             # 0x33: a channel without a robot, an option the controller lacks: stop asking. The
             # value it had (if any) is not vouched for any more.
@@ -721,7 +763,6 @@ class Line:
             log.debug("line %s: poll of %s refused (%s)", self.name, key, exc)
             self._mark_stale(command)
             return
-        self._store(command, result)
 
     def _mark_stale(self, command: Command[Any]) -> None:
         """Mark STALE the good model values that ``command`` (a poll read) refreshes."""
@@ -736,23 +777,24 @@ class Line:
             self.model.age_out(math.inf, keep=others)
 
     async def _poll_read(self, command: Command[R]) -> R:
-        """A poll read: behind the consumers' reads, until the model would go stale waiting;
-        from then on (the job requeued if it waits still) ahead of them."""
+        """A poll read, a flight like a consumer's (its answer refreshes the model): behind
+        the consumers' reads, until the model would go stale waiting; from then on ahead of
+        them."""
         limit = stale_after(self.config)
         age = self.health.poll_age or 0.0
-        if age > limit:
-            return await self._submit(command, PRI_LATE_POLL, None)
         self._check_open()
-        future = self._enqueue(command, PRI_POLL, None)
-        try:
-            done, _ = await asyncio.wait({future}, timeout=limit - age)
-        except asyncio.CancelledError:
-            future.cancel()
-            raise
-        if not done:
-            future.cancel()  # the worker skips it (or, already running, its result is dropped)
-            return await self._submit(command, PRI_LATE_POLL, None)
-        return future.result()
+        late = age > limit
+        answer = self.reads.read(command, PRI_LATE_POLL if late else PRI_POLL, None)
+        if not late:
+            try:
+                done, _ = await asyncio.wait({answer}, timeout=limit - age)
+            except asyncio.CancelledError:
+                answer.cancel()
+                raise
+            if not done:
+                self.reads.hurry(command, PRI_LATE_POLL)
+        result, _ = await answer  # cancelled with the poller: the flight drops it
+        return cast(R, result)
 
     async def wait_polled(self, timeout: float = 5.0) -> None:
         """Wait until a complete poll cycle has ended after now (tests, the CLI's start-up)."""
