@@ -82,7 +82,8 @@ class HistoryReport:
             outcomes[op.outcome] = outcomes.get(op.outcome, 0) + 1
         rules: dict[str, int] = {}
         for v in self.verdict.violations:
-            rules[v.rule] = rules.get(v.rule, 0) + 1
+            what = f"{v.rule} {v.ops[0].code}" if v.ops else v.rule
+            rules[what] = rules.get(what, 0) + 1
         return {
             "seed": self.config.seed,
             "ops": len(self.ops),

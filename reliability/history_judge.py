@@ -259,9 +259,12 @@ def _judge_writes(
         if e["ev"] == "cmd" and e["result"] == "done" and e["code"] in codes and e["t"] >= since
     ]
     by_key: dict[str, list[Op]] = defaultdict(list)
+    every: dict[str, list[Op]] = defaultdict(list)
     for op in sorted(ops, key=lambda op: op.inv):
-        if op.write and op.outcome in (OK, UNKNOWN):
-            by_key[_key(op.code, op.args)].append(op)
+        if op.write:
+            every[_key(op.code, op.args)].append(op)
+            if op.outcome in (OK, UNKNOWN):
+                by_key[_key(op.code, op.args)].append(op)
     # Per command: the ops invoked so far (a pointer into each list by invocation) whose window
     # may still hold the journal's next entry; the entries come in time order.
     next_index: dict[str, int] = defaultdict(int)
@@ -276,7 +279,7 @@ def _judge_writes(
         active[key] = [op for op in active[key] if op.outcome == UNKNOWN or op.resp >= t]
         candidates = active[key]
         if not candidates:
-            near = [op for op in waiting if op.inv - 1.0 <= t <= op.resp + 1.0][:6]
+            near = [op for op in every.get(key, []) if op.inv - 1.0 <= t <= op.resp + 1.0][:6]
             verdict.violations.append(
                 Violation(
                     "write",

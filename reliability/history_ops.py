@@ -232,7 +232,7 @@ class ClientConsumer(_Consumer):
         *,
         timeout: float = 2.0,
         write_share: float = 0.3,
-        reconnect_every: int = 15,
+        reconnect_every: int = 8,
     ) -> None:
         super().__init__(name, index, seed, ops, write_share)
         self.url = url
