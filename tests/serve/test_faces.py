@@ -105,7 +105,8 @@ def test_the_api_serves_the_model_commands_and_the_lease() -> None:
                 )
                 assert status == 200
                 read = {"command": "ReadSpeed", "args": {"channel": 1}}
-                assert _call(f"{base}/commands", read, "POST") == (200, {"result": 20})
+                status, answer = _call(f"{base}/commands", read, "POST")
+                assert (status, answer["result"]) == (200, 20) and answer["age_ms"] >= 0
                 bad = {"command": "SetSpeed", "args": {"channel": 9, "speed": 20}}
                 status, body = _call(f"{base}/commands", bad, "POST", **{"X-Robostar-Who": "ann"})
                 assert status == 400 and "channel" in body["message"]

@@ -37,8 +37,9 @@ class LineConfig:
     """One controller line: its name, URL and how often the poller reads what.
 
     ``poll_interval`` is for status and positions; ``slow_interval`` for speed, job, step, alarms
-    and I/O; ``history_interval`` for the alarm history (a multi-packet read); ``max_age`` 0 sends
-    every read to the controller.
+    and I/O; ``history_interval`` for the alarm history (a multi-packet read). ``max_age`` is
+    deprecated (parsed, warned about when not 0): reads are linearizable unless a request asks
+    for a max_age of its own.
     """
 
     name: str
@@ -50,7 +51,7 @@ class LineConfig:
     history_interval: float = 10.0
     io_ports: tuple[int, ...] = (0,)
     max_age: float | None = None
-    """How old a model value may be to answer a read (default: twice ``poll_interval``)."""
+    """Deprecated: no effect (reads are answered from the model only when a request asks)."""
     channels: dict[int, str] = field(default_factory=dict)
     robot: str | None = None
 

@@ -55,6 +55,7 @@ from robostar.types import ControllerInfo, PositionKind
 __all__ = [
     "STOPS",
     "AbortedByStopError",
+    "ExchangeObserver",
     "LeaseLostError",
     "Line",
     "LineDownError",
@@ -64,6 +65,9 @@ __all__ = [
 ]
 
 R = TypeVar("R")
+ExchangeObserver = Callable[[Command[Any], Any, "Who | None"], None]
+"""Called after each completed exchange: (command, its result or the error it ended with, who
+asked: None for the poller's and for reads shared by several readers)."""
 log = logging.getLogger("robostar.serve")
 
 STOPS = (EmergencyStop, StopJob, StopHoming, JogStop)
@@ -212,7 +216,16 @@ class Line:
         """The line's reads, coalesced: consumers' and the poller's alike."""
         self._written = False
         self.info: ControllerInfo | None = None
+        self._observers: list[ExchangeObserver] = []
         self.lease.on_lost.append(self._lease_lost)
+        if config.max_age:
+            log.warning(
+                "line %s: max_age = %g in its config has no effect any more: reads are answered"
+                " by the controller unless a request accepts an older value (the API's max_age,"
+                " serve://...?max_age=, n1.max_age)",
+                self.name,
+                config.max_age,
+            )
 
     # -- life cycle ------------------------------------------------------------------------
     async def start(self) -> None:
@@ -355,6 +368,30 @@ class Line:
             self._reads_waiting -= 1
         return cast(R, result), began
 
+    def on_exchange(self, observer: ExchangeObserver) -> Callable[[], None]:
+        """Call ``observer(command, result_or_error, who)`` after each exchange the line
+        completes, in the worker, before its requester hears of it: ``result_or_error`` is the
+        answer, or the exception it ended with (a refusal, a timeout, an abort by a stop); ``who``
+        is the requester, None for the poller's reads and for reads shared by several readers.
+        So other parts (the web face's program store, a recorder) see uploads, downloads and
+        every other exchange without reaching into the line. An observer must be quick and must
+        not raise (what it raises is logged and dropped). Returns a function that removes it."""
+        self._observers.append(observer)
+
+        def remove() -> None:
+            with contextlib.suppress(ValueError):
+                self._observers.remove(observer)
+
+        return remove
+
+    def _exchanged(self, job: _Job, outcome: Any) -> None:
+        who = job.who if job.shared_by is None else job.shared_by()
+        for observer in list(self._observers):
+            try:
+                observer(job.command, outcome, who)
+            except Exception:
+                log.exception("line %s: an exchange observer failed", self.name)
+
     # -- the queue -------------------------------------------------------------------------
     async def _submit(self, command: Command[R], priority: int, who: Who | None) -> R:
         self._check_open()
@@ -496,12 +533,12 @@ class Line:
                 count, total = done[0]
                 unit = "lines accepted" if isinstance(job.command, UploadFile) else "packets read"
                 of = f" of {total}" if total is not None else ""
-                job.future.set_exception(
-                    AbortedByStopError(
-                        f"line {self.name}: {job.command.CODE} aborted by stop {stop.CODE}"
-                        f" after {count}{of} {unit} (the transfer is incomplete)"
-                    )
+                aborted = AbortedByStopError(
+                    f"line {self.name}: {job.command.CODE} aborted by stop {stop.CODE}"
+                    f" after {count}{of} {unit} (the transfer is incomplete)"
                 )
+                self._exchanged(job, aborted)
+                job.future.set_exception(aborted)
                 self._count(started, error=True)
                 return
             task.cancel()
@@ -522,11 +559,13 @@ class Line:
                 # the soft limits raises an alarm): no value read before it may answer now
                 self._state_changed()
             await self._line_trouble(exc)  # first: the waiter then sees the line as it is
+            self._exchanged(job, exc)
             if not job.future.done():
                 job.future.set_exception(exc)
             return
         except Exception as exc:  # a bug must reach the caller, not kill the worker
             self._count(started, error=True)
+            self._exchanged(job, exc)
             if not job.future.done():
                 job.future.set_exception(exc)
             return
@@ -537,6 +576,7 @@ class Line:
         self._count(started, error=False)
         if job.command.CHANGES_STATE:
             self._state_changed()
+        self._exchanged(job, result)
         if not job.future.done():
             job.future.set_result(result)
 

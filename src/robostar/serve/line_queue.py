@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import asyncio
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -42,6 +43,8 @@ class Job:
     """Whose request it is (None: shared by several readers, or the poller's)."""
     started: bool = field(compare=False, default=False)
     """The worker took it: its request may be on the wire."""
+    shared_by: Callable[[], Who | None] | None = field(compare=False, default=None)
+    """For a read flight's job: who its readers are, when one requester (else None)."""
     began: float = field(compare=False, default=math.nan)
     """``time.time()`` as its exchange began (NaN until then): its answer is a sample of the
     controller at some instant from then to its end, so this is the answer's oldest time."""

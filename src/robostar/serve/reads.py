@@ -40,6 +40,11 @@ class Flight:
         self.job = job
         self.readers: list[tuple[asyncio.Future[Any], Who | None]] = []
 
+    def requester(self) -> Who | None:
+        """The one requester all its readers are (None: the poller's, or several)."""
+        whos = {who for reader, who in self.readers if not reader.cancelled()}
+        return whos.pop() if len(whos) == 1 else None
+
     @property
     def boarding(self) -> bool:
         """Still waiting in the queue: a read arriving now may join it."""
@@ -108,6 +113,7 @@ class ReadFlights:
 
     def _watch(self, flight: Flight) -> None:
         job = flight.job
+        job.shared_by = flight.requester
         job.future.add_done_callback(lambda future: self._landed(flight, job, future))
 
     def _landed(self, flight: Flight, job: Job, future: asyncio.Future[Any]) -> None:

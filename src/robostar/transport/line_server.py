@@ -4,6 +4,9 @@
 line's N1 face listens (the API starts one on loopback when none is configured), then connects
 there over TCP. Every client and CLI command thus works through the line server unchanged.
 A token for a remote server goes in the ``token`` option (``serve://h:p/cell1?token=...``).
+Reads through it are linearizable (answered by an exchange that began after they were sent);
+``?max_age=S`` accepts values up to S seconds old from the server's model instead (the API
+then hands out an N1 listener of its own whose reads do so).
 An IPv6 address is written in brackets, as in any URL: ``serve://[::1]:8470/cell1``.
 """
 
@@ -32,12 +35,20 @@ def serve_url(api_host: str, api_port: int, line: str) -> str:
 
 
 def resolve_line(
-    api_host: str, api_port: int, line: str, token: str | None, timeout: float
+    api_host: str,
+    api_port: int,
+    line: str,
+    token: str | None,
+    timeout: float,
+    max_age: float | None = None,
 ) -> tuple[str, int]:
-    """Ask the server's API where ``line``'s N1 face listens; PortError saying why not."""
+    """Ask the server's API where ``line``'s N1 face listens (one whose reads accept values
+    ``max_age`` seconds old, when given); PortError saying why not."""
     where = serve_url(api_host, api_port, line)
     path = urllib.parse.quote(line, safe="")
     url = f"http://{netloc(api_host, api_port)}/lines/{path}/n1"
+    if max_age is not None:
+        url += f"?max_age={max_age!r}"
     request = urllib.request.Request(url)
     if token:
         request.add_header("Authorization", f"Bearer {token}")
@@ -69,17 +80,21 @@ class ServeTransport(TcpTransport):
         token: str | None = None,
         connect_timeout: float = 5.0,
         url: str = "",
+        max_age: float | None = None,
     ) -> None:
         url = url or serve_url(api_host, api_port, line)
         super().__init__(api_host, api_port, connect_timeout=connect_timeout, url=url)
         self.api = (api_host, api_port)
         self.line = line
         self.token = token
+        self.max_age = max_age
 
     def open(self) -> None:
         if self.is_open:
             return
-        self.host, self.port = resolve_line(*self.api, self.line, self.token, self.connect_timeout)
+        self.host, self.port = resolve_line(
+            *self.api, self.line, self.token, self.connect_timeout, self.max_age
+        )
         super().open()
 
 
@@ -95,15 +110,17 @@ class AsyncServeTransport(AsyncTcpTransport):
         token: str | None = None,
         connect_timeout: float = 5.0,
         url: str = "",
+        max_age: float | None = None,
     ) -> None:
         url = url or serve_url(api_host, api_port, line)
         super().__init__(api_host, api_port, connect_timeout=connect_timeout, url=url)
         self.api = (api_host, api_port)
         self.line = line
         self.token = token
+        self.max_age = max_age
 
     async def _connect(self) -> tuple[asyncio.BaseTransport, ReaderProtocol]:
         self.host, self.port = await asyncio.to_thread(
-            resolve_line, *self.api, self.line, self.token, self.connect_timeout
+            resolve_line, *self.api, self.line, self.token, self.connect_timeout, self.max_age
         )
         return await super()._connect()

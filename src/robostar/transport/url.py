@@ -13,6 +13,7 @@ Accepted forms::
 from __future__ import annotations
 
 import enum
+import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -89,6 +90,13 @@ def _positive_float(value: object) -> float:
     return number
 
 
+def _seconds(value: object) -> float:
+    number = float(str(value)) if not isinstance(value, int | float) else float(value)
+    if not 0 <= number < math.inf:
+        raise ValueError(f"{value!r} is not a number of seconds, 0 or more")
+    return number
+
+
 def _int(value: object) -> int:
     if isinstance(value, bool):
         raise ValueError(f"{value!r} is not an integer")
@@ -112,6 +120,7 @@ TCP_OPTIONS: dict[str, Callable[[object], object]] = {"connect_timeout": _positi
 SERVE_OPTIONS: dict[str, Callable[[object], object]] = {
     "connect_timeout": _positive_float,
     "token": str,
+    "max_age": _seconds,
 }
 
 

@@ -9,7 +9,12 @@ Routes (``{line}`` is a line name)::
     POST   /lines/{line}/commands      {"command": "SetSpeed", "args": {...}} or {"hex": "ff4141"}
     POST   /lines/{line}/lease         take or renew the lease; DELETE gives it up
     GET    /lines/{line}/n1            the line's N1 address (started on loopback on demand;
-                                       what ``serve://HOST:PORT/LINE`` connects to)
+                                       what ``serve://HOST:PORT/LINE`` connects to;
+                                       ``?max_age=S``: one whose reads accept values S s old)
+
+A read (a command that changes nothing) is linearizable: answered by an exchange that began
+after it arrived. With ``"max_age": S`` in the body (or ``?max_age=S``) a model value at most S
+seconds old answers it; either way the answer gives its age, ``{"result": ..., "age_ms": ...}``.
 
 The consumer names itself in the ``X-Robostar-Who`` header. A token, when configured (required
 off loopback), goes in ``Authorization: Bearer TOKEN``.
@@ -31,6 +36,7 @@ import contextlib
 import json
 import logging
 import math
+import time
 from collections.abc import AsyncIterator, Mapping
 from typing import TYPE_CHECKING, Any
 
@@ -251,16 +257,19 @@ def build_app(
         try:
             body = await request.json()
             command = _command_from(body)
-            max_age = _max_age(body.get("max_age"))
+            # a read is linearizable unless it accepts an older value (the body's or the
+            # query's max_age); it is then answered from the model, its age given with it
+            max_age = _max_age(body.get("max_age", _query_number(request, "max_age")))
         except (ValueError, TypeError, RobostarError) as exc:
             return _error(400, str(exc), "usage")
         who = api.who(request)
         implicit = bool(body.get("implicit_lease", False))
+        at: float | None = None
         try:
             if command.CHANGES_STATE:
                 result = await line.execute(command, who=who, implicit_lease=implicit)
             else:
-                result = await line.read(command, max_age=max_age)
+                result, at = await line.read_sample(command, max_age=max_age)
         except LeaseHeldError as exc:
             return _error(409, str(exc), "lease")
         except LineDownError as exc:
@@ -273,7 +282,10 @@ def build_app(
             return _error(422, str(exc), "controller")
         except RobostarError as exc:
             return _error(502, str(exc), type(exc).__name__)
-        return JSONResponse({"result": jsonable(result)})
+        if at is None:
+            return JSONResponse({"result": jsonable(result)})
+        age_ms = round(max(0.0, time.time() - at) * 1000.0, 1)
+        return JSONResponse({"result": jsonable(result), "age_ms": age_ms})
 
     async def lease(request: Request) -> Response:
         got = await guard(request)
@@ -313,6 +325,21 @@ def build_app(
         if isinstance(got, Response):
             return got
         _, line = got
+        try:
+            max_age = _max_age(_query_number(request, "max_age"))
+        except UsageError as exc:
+            return _error(400, str(exc), "usage")
+        if max_age is not None:
+            # serve://...?max_age=S: a listener of its own whose reads accept values S s old
+            own = f"{line.name}?max_age={max_age:g}"
+            async with api.own_n1_starting:
+                if own not in api.own_n1:
+                    options = {"lines": {line.name: "127.0.0.1:0"}, "max_age": max_age}
+                    face = create_face("n1", server, options)
+                    await face.start()
+                    api.own_n1[own] = face
+            addresses = getattr(api.own_n1[own], "addresses", {})
+            return JSONResponse({"line": line.name, "n1": addresses.get(line.name)})
         address = api.n1_address(line.name)
         if address is None:
             async with api.own_n1_starting:
@@ -348,6 +375,18 @@ def build_app(
 
 def _guard_error(status: int, message: str) -> Response:
     return _error(status, message, "size" if status == 413 else "request")
+
+
+def _query_number(request: Request, name: str) -> float | str | None:
+    """A number given in the query (as a float when it parses; the text otherwise, for
+    :func:`_max_age` to refuse with its message), or None when absent."""
+    text = request.query_params.get(name)
+    if text is None:
+        return None
+    try:
+        return float(text)
+    except ValueError:
+        return text[:40]
 
 
 def _max_age(value: Any) -> float | None:

@@ -10,6 +10,7 @@ certificate signed by that CA get a session; a legacy host reaches it through a 
 
 from __future__ import annotations
 
+import math
 import ssl
 from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
@@ -36,6 +37,7 @@ _OPTIONS = frozenset(
         "client_ca",
         "max_clients",
         "idle_timeout",
+        "max_age",
     )
 )
 
@@ -55,7 +57,8 @@ def mutual_tls_context(cert: str, key: str, client_ca: str) -> ssl.SSLContext:
 def create(server: LineServer, options: Mapping[str, Any]) -> N1Face:
     """``options``: ``{"lines": {NAME: "HOST:PORT"}, "allow_remote": bool, "allow_from": [...],
     "tls_cert": PATH, "tls_key": PATH, "client_ca": PATH, "max_clients": N (16),
-    "idle_timeout": SECONDS (600; 0 never)}``."""
+    "idle_timeout": SECONDS (600; 0 never), "max_age": SECONDS (reads answered from the model
+    when at most that old; default none: every read is linearizable)}``."""
     unknown = sorted(set(options) - _OPTIONS)
     if unknown:
         raise UsageError(
@@ -93,4 +96,14 @@ def create(server: LineServer, options: Mapping[str, Any]) -> N1Face:
         ssl_context=context,
         allow_from=networks,
         limits=HostLimits.from_options(options, "n1"),
+        max_age=_max_age(options.get("max_age")),
     )
+
+
+def _max_age(value: object) -> float | None:
+    """The ``max_age`` option: None, or a finite number of seconds, 0 or more."""
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, int | float) or not 0 <= value < math.inf:
+        raise UsageError(f"n1.max_age: {value!r} is not a number of seconds, 0 or more")
+    return float(value)

@@ -43,8 +43,10 @@ _GAVE_UP = "the host gave the exchange up (an RST or a new request)"
 class N1Backend(Backend):
     """Hands each session's requests to one :class:`Line`."""
 
-    def __init__(self, line: Line) -> None:
+    def __init__(self, line: Line, *, max_age: float | None = None) -> None:
         self.line = line
+        self.max_age = max_age
+        """None: reads are linearizable; else a model value this many seconds old answers."""
         self._tasks: set[asyncio.Task[None]] = set()
         self._abandoned: set[Request] = set()
         """Requests whose host gave them up before their task ran (see exchange_abandoned)."""
@@ -80,7 +82,7 @@ class N1Backend(Backend):
             if command.CHANGES_STATE:
                 result = await self.line.execute(command, who=who, implicit_lease=True)
             else:
-                result = await self.line.read(command, who=who)
+                result = await self.line.read(command, who=who, max_age=self.max_age)
         except ControllerError as exc:
             self._refuse(request, exc.reason or str(exc), exc.flag or _FLAG_FAILED)
             return

@@ -35,6 +35,7 @@ class N1Face:
         ssl_context: ssl.SSLContext | None = None,
         allow_from: Sequence[object] | None = None,
         limits: HostLimits | None = None,
+        max_age: float | None = None,
     ) -> None:
         self.server = server
         self.limits = limits or HostLimits()
@@ -45,6 +46,8 @@ class N1Face:
         self.hosts: dict[str, AsyncHost] = {}
         self.backends: dict[str, N1Backend] = {}
         self.addresses: dict[str, tuple[str, int]] = {}
+        self.max_age = max_age
+        """Seconds old a model value may be to answer a read (None: reads are linearizable)."""
 
     async def start(self) -> None:
         for name, listen in self.listens.items():
@@ -55,7 +58,7 @@ class N1Face:
         if name in self.addresses:
             return self.addresses[name]
         host, port = listen
-        backend = N1Backend(self.server.lines[name])
+        backend = N1Backend(self.server.lines[name], max_age=self.max_age)
         timeout = self.server.lines[name].config.timeout
 
         def factory(conn: str) -> ControllerSession:
