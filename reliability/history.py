@@ -25,13 +25,16 @@ from pathlib import Path
 from typing import Any
 
 import robostar
+from reliability.history_faults import CONSUMER_TIMEOUTS, LINE_FAULTS, FaultPlayer
 from reliability.history_judge import Op, Verdict, judge
 from reliability.history_ops import JOB_CHANNEL, ApiConsumer, ClientConsumer
+from robostar.errors import PortError
 from robostar.serve import LineConfig, LineServer, ServeConfig
 from robostar.sim import SimConfig
 from robostar.sim.controller import VirtualController
+from robostar.sim.faults import parse_fault
 from robostar.sim.journal import Journal
-from robostar.sim.listeners import SimServer
+from robostar.sim.listeners import SimServer, SimSessions
 from robostar.sim.store import StateStore
 
 __all__ = ["HistoryConfig", "HistoryReport", "Rig", "run_history"]
@@ -58,6 +61,8 @@ class HistoryConfig:
     lease_ttl: float = 5.0
     faults: bool = False
     """Faults during the run (see :mod:`reliability.history_faults`)."""
+    fault_every: float = 6.0
+    """Seconds between the hangs and restarts, about."""
     stale_consumer: bool = False
     """Plant a fake: one consumer answers its reads from its own earlier answers (a stale
     cache), so that the checker is seen to catch it."""
@@ -71,6 +76,8 @@ class HistoryReport:
     journal_entries: int
     wall: float
     crashes: list[str] = field(default_factory=list)
+    faults: dict[str, int] = field(default_factory=dict)
+    """Hangs and restarts played (the line faults run throughout)."""
 
     @property
     def violations(self) -> int:
@@ -96,6 +103,7 @@ class HistoryReport:
             "journal_entries": self.journal_entries,
             "wall_s": round(self.wall, 1),
             "max_age": self.config.max_age,
+            "faults": {"line": list(LINE_FAULTS), **self.faults} if self.config.faults else None,
             "crashes": self.crashes,
             "examples": [v.render() for v in self.verdict.violations[:5]],
         }
@@ -162,20 +170,56 @@ class Rig:
         self.state_dir = state_dir
         self.sim_config = SimConfig(seed=config.seed)
         self.sim: SimServer | None = None
+        self.sessions: SimSessions | None = None
         self.port = 0
         self.server: _ServerThread | None = None
+        self.line_faults = False
+        """Once True, every new line connection to the simulator runs through LINE_FAULTS."""
+        self._swap = threading.Lock()
+        self.restarts = 0
 
     def start_sim(self) -> None:
         controller = VirtualController(
             self.sim_config, store=StateStore(self.state_dir), journal=self.journal
         )
-        self.sim = SimServer(controller, port=self.port).start()
+        faults = [parse_fault(spec) for spec in LINE_FAULTS] if self.line_faults else []
+        self.sessions = SimSessions(controller, faults=faults, seed=self.config.seed)
+        for attempt in range(50):
+            try:
+                self.sim = SimServer(self.sessions, port=self.port).start()
+                break
+            except PortError:
+                if attempt == 49:
+                    raise
+                time.sleep(0.1)  # the old listener's port is not free yet
+        assert self.sim is not None
         self.port = self.sim.address[1]
 
     def stop_sim(self) -> None:
         if self.sim is not None:
             self.sim.close()
             self.sim = None
+
+    def faults_on(self) -> None:
+        """LINE_FAULTS on the line from now on (on the connections opened from now on)."""
+        self.line_faults = True
+        assert self.sessions is not None
+        self.sessions.faults = [parse_fault(spec) for spec in LINE_FAULTS]
+
+    def hang(self, seconds: float) -> None:
+        """The controller hangs: no byte in or out for ``seconds`` (time runs on)."""
+        with self._swap:
+            if self.sim is not None:
+                with self.sim.lock:
+                    time.sleep(seconds)
+
+    def restart_sim(self) -> None:
+        """The simulator stops and starts again on the same port, its state kept."""
+        with self._swap:
+            self.stop_sim()
+            time.sleep(0.3)
+            self.start_sim()
+            self.restarts += 1
 
     def prepare(self) -> None:
         """The cell's starting state, set directly on the simulator: both robots homed, a job
@@ -238,7 +282,11 @@ def _consumers(config: HistoryConfig, rig: Rig) -> list[Any]:
     share = max(1, config.ops // max(1, total))
     out: list[Any] = []
     index = 0
-    timeouts = config.timeouts or (2.0,)
+    timeouts = CONSUMER_TIMEOUTS if config.faults else (config.timeouts or (2.0,))
+
+    def n1_address() -> tuple[str, int]:
+        host, port = server.n1_url.removeprefix("tcp://").rsplit(":", 1)
+        return host, int(port)
 
     def api_base() -> str:
         host, port = server.api_address
@@ -270,6 +318,8 @@ def _consumers(config: HistoryConfig, rig: Rig) -> list[Any]:
                     url,
                     timeout=timeouts[(index - 1) % len(timeouts)],
                     write_share=config.write_share,
+                    drop_share=0.02 if config.faults else 0.0,
+                    raw_address=n1_address,
                 )
             )
     return out
@@ -294,10 +344,14 @@ def run_history(
     """One seeded run: the rig, the consumers to their last op, then the judge;
     ``progress(ops)`` now and then."""
     start = time.monotonic()
+    player: FaultPlayer | None = None
     with _rig(config) as rig:
         since = time.monotonic()
         consumers = _consumers(config, rig)
         threads = [threading.Thread(target=c.run, name=c.plan.name) for c in consumers]
+        if config.faults:
+            rig.faults_on()
+            player = FaultPlayer(rig, config.seed, config.fault_every).start()
         for thread in threads:
             thread.start()
         next_report = 10_000
@@ -307,12 +361,19 @@ def run_history(
             if progress is not None and done >= next_report:
                 progress(done)
                 next_report += 10_000
+        if player is not None:
+            player.stop()
         time.sleep(0.2)  # the last unknown-outcome writes reach the journal
     entries = rig.journal.entries or []
     ops: list[Op] = [op for c in consumers for op in c.ops]
     verdict = judge(entries, ops, since=since)
     crashes = [f"{c.plan.name}: {c.crash!r}" for c in consumers if c.crash is not None]
-    return HistoryReport(config, ops, verdict, len(entries), time.monotonic() - start, crashes)
+    if player is not None and player.failure is not None:
+        crashes.append(f"faults: {player.failure!r}")
+    report = HistoryReport(config, ops, verdict, len(entries), time.monotonic() - start, crashes)
+    if player is not None:
+        report.faults = dict(player.played)
+    return report
 
 
 def run_seeds(base: HistoryConfig, seeds: Sequence[int]) -> list[HistoryReport]:

@@ -12,6 +12,7 @@ from __future__ import annotations
 import contextlib
 import json
 import random
+import socket
 import threading
 import time
 import urllib.error
@@ -30,6 +31,7 @@ from robostar.errors import (
     RobostarError,
     UsageError,
 )
+from robostar.protocol.frame import encode_packet
 from robostar.sim.journal import file_digest, jsonable
 from robostar.types import ChannelStatus, CoordSystem, JobFile, MotionType, PositionKind
 
@@ -115,8 +117,15 @@ def _writes(plan: Plan) -> Planned:
         return Planned(
             motion.Move(1, MotionType.JOINT, CoordSystem.ANGLE, ((500.0, 0.0, 0.0, 0.0),)), wait
         )
-    if pick in (9, 10):
+    if pick == 9:
         return Planned(control.ResetAlarms())
+    if pick == 10:
+        # After an emergency stop or a restart of the controller: origin return, job again.
+        if rng.random() < 0.5:
+            return Planned(control.ResetAlarms())
+        if rng.random() < 0.5:
+            return Planned(motion.Home(1), wait=True)
+        return Planned(job.SelectJob(JOB_CHANNEL, "LOOP.JOB"))
     if pick == 11:
         return Planned(job.Servo(1, rng.random() < 0.8))
     if pick == 12:
@@ -233,11 +242,15 @@ class ClientConsumer(_Consumer):
         timeout: float = 2.0,
         write_share: float = 0.3,
         reconnect_every: int = 8,
+        drop_share: float = 0.0,
+        raw_address: Callable[[], tuple[str, int]] | None = None,
     ) -> None:
         super().__init__(name, index, seed, ops, write_share)
         self.url = url
         self.timeout = timeout
         self.reconnect_every = reconnect_every
+        self.drop_share = drop_share
+        self.raw_address = raw_address
         self.client: robostar.Client | None = None
 
     def _connected(self) -> robostar.Client:
@@ -255,6 +268,13 @@ class ClientConsumer(_Consumer):
         if seq and seq % self.reconnect_every == 0:
             self.close()
         command = planned.command
+        if (
+            self.raw_address is not None
+            and not isinstance(command, files.UploadFile)
+            and self.plan.rng.random() < self.drop_share
+        ):
+            self._send_and_leave(seq, planned)
+            return
         try:
             client = self._connected()
         except RobostarError:
@@ -263,7 +283,7 @@ class ClientConsumer(_Consumer):
         op = self._op(seq, planned)
         try:
             result = client.execute(command)
-            if planned.wait and isinstance(command, motion.Move | motion.MoveBy):
+            if planned.wait and isinstance(command, motion.Move | motion.MoveBy | motion.Home):
                 # The move was answered: its outcome is known, however the wait ends.
                 with contextlib.suppress(RobostarError):
                     client.wait_stopped(command.channel, timeout=5.0)
@@ -279,6 +299,22 @@ class ClientConsumer(_Consumer):
             op.outcome = UNKNOWN if command.CHANGES_STATE else FAILED
             op.error = f"{type(exc).__name__}: {exc}"
             self.close()
+        op.resp = time.monotonic()
+
+    def _send_and_leave(self, seq: int, planned: Planned) -> None:
+        """A host that sends its request and drops the connection before the answer (a host
+        program killed mid-exchange): its own connection, so no order with the others."""
+        assert self.raw_address is not None
+        op = self._op(seq, planned)
+        op.consumer = f"{self.plan.name}-gone{seq}"
+        op.outcome = UNKNOWN if planned.command.CHANGES_STATE else FAILED
+        op.error = "connection dropped mid-exchange"
+        try:
+            with socket.create_connection(self.raw_address(), timeout=2.0) as sock:
+                sock.sendall(encode_packet(planned.command.encode()))
+                time.sleep(self.plan.rng.uniform(0.0, 0.05))
+        except OSError as exc:
+            op.error = f"not sent: {exc}"
         op.resp = time.monotonic()
 
 

@@ -51,6 +51,18 @@ def test_the_ci_slice_through_the_server_finds_no_violation() -> None:
     assert {op.code for op in report.ops if not op.write} >= {"AA", "AB", "AC", "CA", "GR", "ED"}
 
 
+def test_the_ci_slice_with_faults_finds_no_violation() -> None:
+    # line faults of every kind, the controller hanging, the simulator restarted, consumers
+    # timing out before and after the server does and dropping their connections
+    report = run_history(HistoryConfig(ops=500, seed=3, faults=True, fault_every=1.0))
+    data = report.as_json()
+    assert not data["crashes"]
+    assert data["violations"] == 0, "\n".join(data["examples"])
+    assert data["checked_reads"] >= 100
+    assert any(op.error == "connection dropped mid-exchange" for op in report.ops)
+    assert sum(report.faults.values()) >= 1  # hangs and restarts were played
+
+
 def test_a_consumer_answering_from_a_stale_cache_is_caught() -> None:
     report = run_history(HistoryConfig(ops=300, seed=2, stale_consumer=True))
     rules = {v.rule for v in report.verdict.violations}
