@@ -129,8 +129,9 @@ class VirtualController(Backend):
         """Advance to ``now``: model time, jog watchdogs, due second answers, saving."""
         self._advance(now)
         self._settle()
-        if self._observer is not None:
-            self._observer.observe(now)
+        if self._observer is not None and self._last_now is not None:
+            # the model's own time: a kernel's arrival stamp may be older than the last poll
+            self._observer.observe(self._last_now)
 
     def shared_deadline(self) -> float | None:
         """The next real time the model needs :meth:`poll`: a two-phase answer, the end of a
