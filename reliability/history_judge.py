@@ -185,7 +185,10 @@ def expected(state: dict[str, Any], op: Op) -> Any:
     if code == "AA":
         return state["status"]
     if code == "AB":
-        return [code for code, _ in state["alarms"]]
+        # Two identical alarm packets in a row (one code on two channels: AB carries no
+        # channel) are one packet and its resend to the host's link, which keeps one.
+        codes = [code for code, _ in state["alarms"]]
+        return [c for i, c in enumerate(codes) if i == 0 or codes[i - 1] != c]
     if code == "CA":
         return state[f"ch{args['channel']}.speed"]
     if code == "ED":
@@ -250,9 +253,15 @@ def _key(code: str, args: dict[str, Any]) -> str:
 
 
 def _judge_writes(
-    timeline: Timeline, ops: Sequence[Op], codes: set[str], since: float, verdict: Verdict
+    timeline: Timeline,
+    ops: Sequence[Op],
+    codes: set[str],
+    since: float,
+    verdict: Verdict,
+    sure: set[int],
 ) -> dict[int, float]:
-    """Match the journal's carried-out commands to the write ops; returns op id -> time."""
+    """Match the journal's carried-out commands to the write ops; returns op id -> time.
+    ``sure`` gets the ops whose entry no other op could have sent."""
     done = [
         e
         for e in timeline.entries
@@ -291,8 +300,14 @@ def _judge_writes(
                 )
             )
             continue
-        # The candidate whose window closes first: the matching a timeline allows, if any.
-        chosen = min(candidates, key=lambda op: op.resp if op.outcome == OK else math.inf)
+        # The candidate whose window closes first: the matching a timeline allows, if any;
+        # among unknown outcomes, the one sent last (the likeliest to have just run).
+        chosen = min(
+            candidates,
+            key=lambda op: (op.resp, 0.0) if op.outcome == OK else (math.inf, -op.inv),
+        )
+        if len(candidates) == 1:
+            sure.add(id(chosen))
         candidates.remove(chosen)
         claimed[id(chosen)] = t
     for op in ops:
@@ -312,10 +327,14 @@ def _judge_writes(
     return claimed
 
 
-def _judge_order(ops: Sequence[Op], claimed: dict[int, float], verdict: Verdict) -> None:
+def _judge_order(
+    ops: Sequence[Op], claimed: dict[int, float], sure: set[int], verdict: Verdict
+) -> None:
+    """Only matches no other op could have made count: identical commands of several
+    consumers (CD, CG) may be told apart by their times alone, and a guess is no evidence."""
     per: dict[str, list[Op]] = defaultdict(list)
     for op in ops:
-        if op.write and id(op) in claimed:
+        if op.write and id(op) in sure:
             per[op.consumer].append(op)
     for consumer_ops in per.values():
         consumer_ops.sort(key=lambda op: op.seq)
@@ -342,6 +361,7 @@ def judge(
         if not op.write:
             _judge_read(timeline, op, verdict)
     codes = {op.code for op in ops if op.write}
-    claimed = _judge_writes(timeline, ops, codes, since, verdict)
-    _judge_order(ops, claimed, verdict)
+    sure: set[int] = set()
+    claimed = _judge_writes(timeline, ops, codes, since, verdict, sure)
+    _judge_order(ops, claimed, sure, verdict)
     return verdict

@@ -133,3 +133,12 @@ def test_a_consumers_changes_taking_effect_out_of_order_is_a_violation() -> None
     second = _write("a", 1, 2.0, 2.6, 2)
     verdict = judge(entries, [first, second])
     assert [v.rule for v in verdict.violations] == ["order"]
+
+
+def test_one_alarm_on_two_channels_may_read_as_one() -> None:
+    # AB carries no channel: the two identical packets are one and its resend to a host's link
+    both = {"ev": "change", "t": 1.0, "set": {"alarms": [[9002, 1], [9002, 2]]}}
+    once = _read("AB", {}, 1.1, 1.2, [9002])
+    missing = _read("AB", {}, 1.1, 1.2, [])
+    verdict = judge([_START, both], [once, missing])
+    assert [v.ops for v in verdict.violations] == [[missing]]
