@@ -83,6 +83,17 @@ class HistoryReport:
     def violations(self) -> int:
         return len(self.verdict.violations)
 
+    def _examples(self, per_kind: int = 3) -> list[str]:
+        """Up to ``per_kind`` rendered violations of each rule and command."""
+        seen: dict[str, int] = {}
+        out = []
+        for v in self.verdict.violations:
+            kind = f"{v.rule} {v.ops[0].code}" if v.ops else v.rule
+            seen[kind] = seen.get(kind, 0) + 1
+            if seen[kind] <= per_kind:
+                out.append(v.render())
+        return out
+
     def as_json(self) -> dict[str, Any]:
         outcomes: dict[str, int] = {}
         for op in self.ops:
@@ -105,7 +116,7 @@ class HistoryReport:
             "max_age": self.config.max_age,
             "faults": {"line": list(LINE_FAULTS), **self.faults} if self.config.faults else None,
             "crashes": self.crashes,
-            "examples": [v.render() for v in self.verdict.violations[:5]],
+            "examples": self._examples(),
         }
 
 
