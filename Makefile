@@ -61,6 +61,7 @@ reliability: $(STAMP)
 	$(BIN)/python reliability/run.py properties --examples 10000
 	$(BIN)/python -m pytest -m slow
 	$(BIN)/python reliability/run.py soak --exchanges 1000000
+	$(BIN)/python reliability/run.py history --ops 100000 --seeds 1 2 3
 	$(BIN)/python reliability/run.py table
 
 clean:

@@ -4,6 +4,7 @@
     python reliability/run.py fuzz --engine atheris --inputs 1000000
     python reliability/run.py matrix                           # every cell of the fault matrix
     python reliability/run.py soak --exchanges 1000000         # loopback TCP, own sim process
+    python reliability/run.py history --ops 100000 --seeds 1 2 3   # consumers through serve
     python reliability/run.py table                            # the matrix as markdown
     python reliability/run.py properties --examples 10000      # the link's property tests
 
@@ -207,6 +208,38 @@ def cmd_properties(args: argparse.Namespace) -> int:
     return 1 if failed else 0
 
 
+# -- history ---------------------------------------------------------------------------------
+def cmd_history(args: argparse.Namespace) -> int:
+    from reliability.history import HistoryConfig, run_history
+
+    runs = []
+    bad = False
+    for seed in args.seeds:
+        config = HistoryConfig(
+            ops=args.ops,
+            seed=seed,
+            max_age=args.max_age,
+            faults=not args.no_faults,
+        )
+        report = run_history(config, progress=lambda n: _say(f"history: {n} ops"))
+        data = report.as_json()
+        for example in data["examples"]:
+            _say(example)
+        _say(
+            f"history seed {seed}: {data['ops']} ops, {data['checked_reads']} reads and "
+            f"{data['checked_writes']} writes checked, {data['violations']} violations"
+        )
+        runs.append(data)
+        bad = bad or bool(data["violations"] or data["crashes"])
+    total = {
+        "ops": sum(r["ops"] for r in runs),
+        "checked": sum(r["checked_reads"] + r["checked_writes"] for r in runs),
+        "violations": sum(r["violations"] for r in runs),
+    }
+    _write(args.out or RESULTS / "history.json", "history", {"total": total, "runs": runs})
+    return 1 if bad else 0
+
+
 # -- table -----------------------------------------------------------------------------------
 def matrix_table(data: dict[str, Any]) -> str:
     """The matrix JSON as a markdown table: one row per exchange and direction, one column per
@@ -272,6 +305,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     soak.add_argument("--exchanges", type=int, default=1_000_000)
     soak.add_argument("--out", type=Path)
     soak.set_defaults(run=cmd_soak)
+
+    history = sub.add_parser("history", help="consumers through robostar serve, judged")
+    history.add_argument("--ops", type=int, default=100_000, help="operations per seed")
+    history.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])
+    history.add_argument(
+        "--max-age", type=float, default=None, help="the line's max_age (default: the server's)"
+    )
+    history.add_argument("--no-faults", action="store_true", help="no faults on the line")
+    history.add_argument("--out", type=Path)
+    history.set_defaults(run=cmd_history)
 
     table = sub.add_parser("table", help="print the matrix results as a markdown table")
     table.add_argument("--source", type=Path, help="a matrix JSON (default: the last run's)")

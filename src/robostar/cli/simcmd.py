@@ -102,6 +102,15 @@ __all__ = ["sim", "sim_input"]
     metavar="TRACE",
     help="Answer from a recorded --trace instead of the model (reports where the host differs).",
 )
+@click.option(
+    "--journal",
+    "journal_file",
+    type=click.Path(dir_okay=False),
+    default=None,
+    metavar="FILE",
+    help="Append every state change the simulator carries out to FILE (JSONL, see "
+    "docs/simulator.md, Journal).",
+)
 @common_options()
 @pass_session
 def sim(
@@ -119,6 +128,7 @@ def sim(
     allow_remote: bool,
     dialect: str | None,
     replay_file: str | None,
+    journal_file: str | None,
 ) -> None:
     """Run the simulator: a virtual N1 for other programs (or another robostar) to talk to.
 
@@ -135,6 +145,7 @@ def sim(
       robostar sim --control 127.0.0.1:9199     # then: robostar sim-input 0 3 on
       robostar sim --dialect capacity            # FA announces 2000, as some N1s do
       robostar sim --replay field.trace          # answer as a recorded controller did
+      robostar sim --journal run.jsonl           # what it carried out, when: test evidence
     """
     if click.get_current_context().invoked_subcommand is not None:
         return
@@ -160,6 +171,8 @@ def sim(
                 f"{next(iter(DIALECTS))}` (`robostar sim --help` says what each one changes)."
             )
             raise
+    if journal_file is not None:
+        config = dataclasses.replace(config, journal=journal_file)
     address = None if listen.strip().lower() in ("", "none") else listen
     if replay_file is not None:
         from robostar.sim.replay import serve_replay

@@ -183,6 +183,9 @@ class SimConfig:
     dialect: str = "manual"
     """How the answers are written (robostar.sim.dialects: manual, capacity, left-aligned,
     padded)."""
+    journal: str | PathLike[str] | None = None
+    """A JSONL file the controller appends every state change it carries out to
+    (robostar.sim.journal); None keeps no journal."""
 
     def __post_init__(self) -> None:
         if len(self.name) > 15:

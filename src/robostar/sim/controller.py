@@ -24,6 +24,7 @@ from robostar.errors import FieldError
 from robostar.sim.config import SimConfig
 from robostar.sim.dialects import dialect_named
 from robostar.sim.handlers import Deferred, Reply, Upload, handle
+from robostar.sim.journal import Journal, Observer
 from robostar.sim.model import Model, Refused, Timer
 
 __all__ = ["JOG_WATCHDOG", "StateStoreLike", "VirtualController"]
@@ -64,6 +65,7 @@ class VirtualController(Backend):
         *,
         store: StateStoreLike | None = None,
         limits: UploadLimits | None = None,
+        journal: Journal | None = None,
     ):
         self.config = config or SimConfig()
         self.model = Model(self.config)
@@ -80,6 +82,13 @@ class VirtualController(Backend):
             snapshot = store.load()
             if snapshot is not None:
                 self.model.restore(snapshot)
+        if journal is None and self.config.journal is not None:
+            journal = Journal(self.config.journal)
+        self.journal = journal
+        """Where every state change goes (robostar.sim.journal), or None."""
+        self._observer = (
+            Observer(journal, self.model, self.config.name) if journal is not None else None
+        )
         self._saved = self.model.revision
         self.session = self.open_session("line")
         """The session of the one line served when this object is used as a byte peer."""
@@ -120,6 +129,9 @@ class VirtualController(Backend):
         """Advance to ``now``: model time, jog watchdogs, due second answers, saving."""
         self._advance(now)
         self._settle()
+        if self._observer is not None and self._last_now is not None:
+            # the model's own time: a kernel's arrival stamp may be older than the last poll
+            self._observer.observe(self._last_now)
 
     def shared_deadline(self) -> float | None:
         """The next real time the model needs :meth:`poll`: a two-phase answer, the end of a
@@ -153,6 +165,8 @@ class VirtualController(Backend):
     def _advance(self, now: float) -> None:
         if self._last_now is None:
             self._last_now = now
+            if self._observer is not None:
+                self._observer.start(now)
             return
         # A jog whose watchdog ran out stops where it was at that moment.
         while True:
@@ -200,9 +214,31 @@ class VirtualController(Backend):
         self.model.last_error = text
 
     def begin_upload(self, session: ControllerSession, command: UploadFile) -> None:
-        self._outcome(command)
+        try:
+            self._outcome(command)
+        except Refusal as refusal:
+            self._journal(session, command, "refused", refusal.reason)
+            raise
 
     def handle(self, request: Request) -> None:
+        command = request.command
+        try:
+            self._carry_out(request)
+        except Refusal as refusal:
+            if command.CHANGES_STATE:
+                self._journal(request.session, command, "refused", refusal.reason)
+            raise
+        if command.CHANGES_STATE:
+            self._journal(request.session, command, "done")
+
+    def _journal(
+        self, session: ControllerSession, command: Command[Any], result: str, reason: str = ""
+    ) -> None:
+        if self._observer is not None:
+            now = self._last_now if self._last_now is not None else 0.0
+            self._observer.command(now, session.name, command, result, reason or None)
+
+    def _carry_out(self, request: Request) -> None:
         command = request.command
         outcome = self._outcome(command)
         if isinstance(outcome, Upload):

@@ -61,6 +61,9 @@ class Path:
     duration: float
     shape: Callable[[float], Joints]
     """Joint values at fraction 0..1 of the path."""
+    knots: tuple[Joints, ...] = ()
+    """The joint values the shape passes through at evenly spaced fractions, straight between
+    them (empty: straight from start to end). The journal records a path by them."""
 
     def at(self, t: float) -> Joints:
         if self.duration <= 0 or t >= self.duration:
@@ -137,7 +140,7 @@ def _cartesian(
         * _SAMPLES
     )
     duration = max(joint_time, length / (cfg.linear_speed * speed / 1000.0))
-    return _check(cfg, Path(start, end, duration, shape))
+    return _check(cfg, Path(start, end, duration, shape, tuple(samples)))
 
 
 def plan_linear(cfg: ChannelConfig, start: Joints, end: Joints, speed: int) -> Path:

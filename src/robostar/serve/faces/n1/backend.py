@@ -14,7 +14,9 @@ second time.
 A session's requests still waiting in the line's queue are withdrawn (nothing sent) when its
 connection closes or its host gives the exchange up (an RST, a new request): nobody would hear
 their outcome, and a write must not reach the robot for a host that has moved on or gone (its
-lease is released on disconnect, and another may hold it by then).
+lease is released on disconnect, and another may hold it by then). A given-up exchange ends at
+once, whatever the line is doing, so the session takes the host's next request: a host whose
+reply timeout is shorter than the line's stays in step with its session.
 """
 
 from __future__ import annotations
@@ -45,6 +47,7 @@ log = logging.getLogger("robostar.serve.n1")
 _FLAG_FAILED = 0x32
 RECENT_REFUSAL = 600.0
 """Seconds a lease refusal is told beside the controller's text by a session's KD."""
+_GAVE_UP = "the host gave the exchange up (an RST or a new request)"
 
 
 class N1Backend(Backend):
@@ -74,17 +77,18 @@ class N1Backend(Backend):
         task.add_done_callback(lambda _: self._abandoned.discard(request))
 
     async def _serve(self, request: Request) -> None:
-        if not request.live:
-            # its connection closed before this task ran: session_closed found nothing of it
-            # to withdraw, so it must not be queued now
-            return
         command = request.command
         who = self.who(request.session)
         if request in self._abandoned:
             # its host gave it up before this task ran (its RST or next request came with it,
             # even in the same read): the withdraw found nothing queued, so nothing may be now
+            # (exchange_abandoned already ended its exchange, so the session has moved on)
             if command.CHANGES_STATE:
                 self.line.record(command, who, "cancelled, not sent: the host gave it up")
+            return
+        if not request.live:
+            # its connection closed before this task ran: session_closed found nothing of it
+            # to withdraw, so it must not be queued now
             return
         try:
             if isinstance(command, ReadLastError):
@@ -177,7 +181,15 @@ class N1Backend(Backend):
         # nobody waits for its outcome now: a write of a host that moved on must not run,
         # whether it waits in the line's queue (withdrawn) or its task has not run yet
         self._abandoned.add(request)
-        self._withdraw(session, "the host gave the exchange up (an RST or a new request)")
+        self._withdraw(session, _GAVE_UP)
+        # The session follows its host, whatever the line is doing: the exchange ends now
+        # (nothing is sent, the host has moved on) and the host's next request is taken at
+        # once, queued behind what the line still does. Waiting for the line's answer instead
+        # kept a host whose reply timeout is shorter than the line's out of step for good: by
+        # the time the answer came, its next request had been given up too, and nothing was
+        # left to answer that one.
+        if request.live:
+            request.abort(f"line server: {_GAVE_UP}")
 
     def session_closed(self, session: ControllerSession) -> None:
         self._withdraw(session, "its N1 connection closed")
