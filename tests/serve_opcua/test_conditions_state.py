@@ -1,11 +1,14 @@
 """A condition's state as variables under its node, as SCADA browsers read it with asyncua's
 real client: EnabledState, ActiveState, AckedState, ConfirmedState (each with its Id),
 ShelvingState/CurrentState (with its Id), Retain, Severity, Comment and ClientUserId are there
-by their standard browse names and always say what the condition's last event said."""
+by their standard browse names and always say what the condition's last event said. The
+standard Enable and Disable methods are refused with BadNotSupported (audited), and the
+condition stays enabled."""
 
 from __future__ import annotations
 
 import asyncio
+import json
 from typing import Any
 
 import pytest
@@ -97,5 +100,36 @@ def test_a_condition_s_state_is_readable_and_follows_its_events(opcua_setup: Set
             with pytest.raises(ua.UaStatusCodeError):
                 await read(condition, "ActiveState")
             await subscription.delete()
+
+    asyncio.run(main())
+
+
+def test_enable_and_disable_are_refused_as_not_supported(opcua_setup: Setup) -> None:
+    enable = ua.NodeId(ua.ObjectIds.ConditionType_Enable)
+    disable = ua.NodeId(ua.ObjectIds.ConditionType_Disable)
+
+    async def main() -> None:
+        async with (
+            serving(opcua_setup, poll=30.0) as server,
+            connect(server, opcua_setup) as client,
+        ):
+            handler = Events()
+            subscription = await subscribe(client, handler)
+            server.line("cell1").model.set("alarms", (Alarm(1007, "vacuum"),))
+            raised = await handler.next_of(1007, 0, "the alarm's event")
+            condition = client.get_node(field(raised, "NodeId"))
+            for method in (disable, enable):
+                refused = await call(condition, method)
+                assert refused.value == ua.StatusCodes.BadNotSupported
+            state = await state_of(condition)
+            assert state["EnabledState/Id"] is True and state["ActiveState/Id"] is True
+            assert len(handler.of(1007)) == 1  # nothing changed, so no event
+            await subscription.delete()
+        records = [
+            json.loads(r) for r in (opcua_setup.state / "audit.jsonl").read_text().splitlines()
+        ]
+        mine = [(r["who"], r["what"], r["outcome"]) for r in records if r["face"] == "opcua"]
+        assert ("olga", "Disable(alarm=1007)", "refused: BadNotSupported") in mine
+        assert ("olga", "Enable(alarm=1007)", "refused: BadNotSupported") in mine
 
     asyncio.run(main())

@@ -274,6 +274,12 @@ class AlarmConditions:
         await self._emit(condition, f"{how.lower()} by {who.name}")
         return []
 
+    def not_supported(self, verb: str, condition: _Condition) -> ua.StatusCode:
+        """A standard method the face refuses (Enable, Disable), audited as refused."""
+        caller = current_caller()
+        who = Who(caller.name if caller is not None and caller.name else "anonymous", "opcua")
+        return self._refuse(verb, condition, who, "BadNotSupported")
+
     def close(self) -> None:
         """Stop the timed shelves' timers (the face is stopping)."""
         for condition in self.conditions.values():
@@ -599,6 +605,8 @@ class ConditionMethods:
             ((o.AcknowledgeableConditionType_Acknowledge,), self._acknowledge),
             ((o.AcknowledgeableConditionType_Confirm,), self._confirm),
             ((o.ConditionType_AddComment,), self._add_comment),
+            ((o.ConditionType_Enable,), self._enable),
+            ((o.ConditionType_Disable,), self._disable),
             (
                 (
                     o.ShelvedStateMachineType_TimedShelve,
@@ -646,6 +654,21 @@ class ConditionMethods:
         if found is None or len(args) != 2:
             return _code("BadNodeIdUnknown" if found is None else "BadArgumentsMissing")
         return await found[0].add_comment(found[1], *args)
+
+    async def _enable(self, parent: ua.NodeId, *args: Any) -> Any:
+        return self._not_supported("Enable", parent)
+
+    async def _disable(self, parent: ua.NodeId, *args: Any) -> Any:
+        return self._not_supported("Disable", parent)
+
+    def _not_supported(self, verb: str, parent: ua.NodeId) -> ua.StatusCode:
+        """Enable and Disable are refused: an N1 alarm cannot be switched off at the
+        controller, and a disabled condition would hide a live alarm from every alarm list
+        (shelving hides it from the lists that want that, for a bounded time)."""
+        found = self._find(parent)
+        if found is None:
+            return _code("BadNodeIdUnknown")
+        return found[0].not_supported(verb, found[1])
 
     async def _timed(self, parent: ua.NodeId, *args: Any) -> Any:
         found = self._find(parent)
