@@ -6,7 +6,8 @@ asyncua server with the DI, IA and Robotics nodesets and, under DI's ``DeviceSet
 variables with source timestamps and status codes (``publisher.py``), and alarms become
 OPC UA alarm conditions with Acknowledge, Confirm and shelving (``conditions.py``);
 ``Start``, ``Stop``, ``LoadByName`` and a vendor ``EmergencyStop`` go
-through the line's lease and audit for operators only (``methods.py``).
+through the line's lease and audit for operators only (``methods.py``); each line's
+``Control`` object shows its lease and takes TakeControl / ReleaseControl (``control.py``).
 
 Security by default (``security.py``): Basic256Sha256 endpoints only (Sign, SignAndEncrypt),
 a self-signed application certificate made on first start and kept, client applications from a
