@@ -247,13 +247,22 @@ def test_positions_follow_the_simulator_while_it_moves(opcua_setup: Setup) -> No
 
             collector = asyncio.create_task(collect())
             await asyncio.sleep(0)
+            # a slow move (1 % speed: about 1.1 s of real time at speedup 20), so that a loaded
+            # machine's late first read still finds the arm moving
+            await line.execute(SetSpeed(1, 10), who=TESTER, implicit_lease=True)
             await line.execute(
                 Move(1, MotionType.JOINT, CoordSystem.ANGLE, ((80.0, 40.0, 50.0, 10.0),)),
                 who=TESTER,
                 implicit_lease=True,
             )
+
+            async def stopped() -> bool:
+                status = line.model.get("ch1/status")
+                return status is not None and not status.value.running
+
+            # read until the move has ended (at least 60 reads), as a client polling it would
             readings: list[tuple[float, Any]] = []
-            for _ in range(60):
+            while len(readings) < 60 or not await stopped():
                 data = await node.read_data_value()
                 readings.append((data.Value.Value, data.SourceTimestamp))
                 await asyncio.sleep(0.02)
@@ -262,10 +271,6 @@ def test_positions_follow_the_simulator_while_it_moves(opcua_setup: Setup) -> No
             # every value a client read is one the controller reported, and it moved
             assert all(any(abs(v - s) < 1e-9 for s in seen) for v in values), (values, seen)
             assert len(set(values)) > 2, values
-
-            async def stopped() -> bool:
-                status = line.model.get("ch1/status")
-                return status is not None and not status.value.running
 
             await until(stopped, what="the move to end")
             direct = await line.read(ReadPosition(1, PositionKind.ANGLE), max_age=0)

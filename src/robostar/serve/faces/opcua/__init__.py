@@ -6,7 +6,8 @@ asyncua server with the DI, IA and Robotics nodesets and, under DI's ``DeviceSet
 variables with source timestamps and status codes (``publisher.py``), and alarms become
 OPC UA alarm conditions with Acknowledge, Confirm and shelving (``conditions.py``);
 ``Start``, ``Stop``, ``LoadByName`` and a vendor ``EmergencyStop`` go
-through the line's lease and audit for operators only (``methods.py``).
+through the line's lease and audit for operators only (``methods.py``); each line's
+``Control`` object shows its lease and takes TakeControl / ReleaseControl (``control.py``).
 
 Security by default (``security.py``): Basic256Sha256 endpoints only (Sign, SignAndEncrypt),
 a self-signed application certificate made on first start and kept, client applications from a
@@ -42,6 +43,7 @@ from robostar.serve.faces.opcua.address_space import (
     namespaces,
 )
 from robostar.serve.faces.opcua.conditions import AlarmConditions, ConditionMethods
+from robostar.serve.faces.opcua.control import REFRESH_SECONDS, ControlNodes, build_control
 from robostar.serve.faces.opcua.methods import handler_for
 from robostar.serve.faces.opcua.nodesets import CachedInternalServer, LoadReport
 from robostar.serve.faces.opcua.publisher import ALARM_EVENT_FIELDS, NodeWriter
@@ -90,6 +92,8 @@ class OpcUaFace:
         self._setpoint_nodes: dict[str, list[ua.NodeId]] = {}
         self.reads = FreshReads(self.publishers.get)
         """Clients' Reads brought up to their maxAge (reads.py)."""
+        self.controls: dict[str, ControlNodes] = {}
+        """Each line's Control object (its lease; control.py)."""
 
     @property
     def address(self) -> str:
@@ -128,6 +132,7 @@ class OpcUaFace:
         self._setpoints = SetpointAttributeService(iserver.aspace)
         iserver.attribute_service = self._setpoints  # clients' writes go to the setpoints
         server.subscribe_server_callback(CallbackType.PreRead, self.reads.before_read)
+        server.subscribe_server_callback(CallbackType.PreRead, self._control_before_read)
         server.set_endpoint(s.endpoint)
         server.set_server_name("robostar serve")
         server.product_uri = "urn:robostar"
@@ -167,6 +172,9 @@ class OpcUaFace:
             await self._build(line)
         await server.start()
         self._secure_endpoints(server)
+        refresher = asyncio.create_task(self._refresh_controls(), name="opcua control")
+        refresher.add_done_callback(_report_end)
+        self.tasks.add(refresher)
         for line in self.server.lines.values():
             jobs = [(self._pump(line), f"opcua {line.name}")]
             if s.global_ints or s.global_floats:
@@ -235,6 +243,7 @@ class OpcUaFace:
             for name, node in ch.methods.items():
                 self.ua.link_method(node, handler_for(line, name, channel))
         await self._writable(line, nodes)
+        self.controls[line.name] = await build_control(self.ua, self.ns.vendor, line, nodes.system)
         events = EventGenerator(self.ua.iserver.isession)
         await events.init(self._event_type, emitting_node=nodes.system.nodeid)
         conditions = self.conditions.get(line.name)
@@ -309,6 +318,25 @@ class OpcUaFace:
                     await self.publishers[line.name].apply_all(line.model.snapshot().items())
                 except Exception:  # one bad value must not stop the line's updates
                     log.exception("opcua %s: cannot show %s", line.name, change.key)
+
+    async def _control_before_read(self, event: Any, dispatcher: Any = None) -> None:
+        """A client's Read of a Control variable sees the lease as it is at that read."""
+        if not getattr(event, "is_external", False):
+            return
+        wanted = {item.NodeId for item in event.request_params.NodesToRead}
+        for control in list(self.controls.values()):
+            if wanted & control.node_ids:
+                await control.show()
+
+    async def _refresh_controls(self) -> None:
+        """Subscribers' view of every line's lease (SecondsLeft runs down, leases expire)."""
+        while True:
+            for control in list(self.controls.values()):
+                try:
+                    await control.show()
+                except Exception:  # a line whose nodes are being made again
+                    log.debug("opcua %s: control not shown", control.line.name, exc_info=True)
+            await asyncio.sleep(REFRESH_SECONDS)
 
     async def _read_globals(self, line: Line) -> None:
         """The configured global variables, read through the line's queue (after the

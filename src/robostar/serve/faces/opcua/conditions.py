@@ -21,8 +21,14 @@ role on a signed channel, as the gated methods do, and is audited; it takes no l
 changes nothing on the robot.
 
 asyncua keeps the last event of every retained condition (``Retain`` true) and replays them on
-``ConditionRefresh``; the condition nodes exist so that the methods can be called on them
-(asyncua refuses a call on an object that is not in the address space).
+``ConditionRefresh``. The condition nodes exist so that the methods can be called on them
+(asyncua refuses a call on an object that is not in the address space), and they carry the
+state as variables too, for SCADA browsers that read a condition rather than subscribe to its
+events: ``EnabledState``, ``ActiveState``, ``AckedState``, ``ConfirmedState`` (each
+``TwoStateVariableType`` with its boolean ``Id``), ``ShelvingState/CurrentState`` (with its
+``Id``, the state's node id), ``Retain``, ``Severity``, ``Comment`` and ``ClientUserId``. They
+are written before each event is sent, so a client that reads them on an event sees that
+event's state.
 """
 
 from __future__ import annotations
@@ -30,6 +36,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import copy
+import datetime as dt
 import logging
 import time
 from collections.abc import Callable, Sequence
@@ -47,6 +54,7 @@ from robostar.serve.faces.opcua._ua import (
     UaStatusCodeError,
     node_id,
     status,
+    timestamp,
 )
 from robostar.serve.faces.opcua.security import current_caller
 from robostar.serve.lease import Who
@@ -92,6 +100,22 @@ def is_emergency(alarm: Alarm) -> bool:
 
 def _code(name: str) -> ua.StatusCode:
     return status(getattr(StatusCodes, name))
+
+
+_TWO_STATES = (
+    ("EnabledState", "Enabled", "Disabled"),
+    ("ActiveState", "Active", "Inactive"),
+    ("AckedState", "Acknowledged", "Unacknowledged"),
+    ("ConfirmedState", "Confirmed", "Unconfirmed"),
+)
+"""The condition's two-state variables: browse name, and its text when true and false."""
+
+_PLAIN_VARIABLES = (
+    ("Retain", ua.VariantType.Boolean, ObjectIds.Boolean),
+    ("Severity", ua.VariantType.UInt16, ObjectIds.UInt16),
+    ("Comment", ua.VariantType.LocalizedText, ObjectIds.LocalizedText),
+    ("ClientUserId", ua.VariantType.String, ObjectIds.String),
+)
 
 
 @dataclass
@@ -250,6 +274,12 @@ class AlarmConditions:
         await self._emit(condition, f"{how.lower()} by {who.name}")
         return []
 
+    def not_supported(self, verb: str, condition: _Condition) -> ua.StatusCode:
+        """A standard method the face refuses (Enable, Disable), audited as refused."""
+        caller = current_caller()
+        who = Who(caller.name if caller is not None and caller.name else "anonymous", "opcua")
+        return self._refuse(verb, condition, who, "BadNotSupported")
+
     def close(self) -> None:
         """Stop the timed shelves' timers (the face is stopping)."""
         for condition in self.conditions.values():
@@ -322,12 +352,114 @@ class AlarmConditions:
         ]
         items[0].TypeDefinition = self.event_type
         items[1].TypeDefinition = node_id(ObjectIds.ShelvedStateMachineType)
+        items.extend(self._state_variables(condition))
         for result in await self.server.iserver.isession.add_nodes(items):
             if not result.StatusCode.is_good() and result.StatusCode.value != (
                 StatusCodes.BadNodeIdExists
             ):
                 log.warning("opcua %s: condition node of %s: %s", self.line, alarm, result)
         return condition
+
+    def _state_node(self, condition: _Condition, path: str) -> ua.NodeId:
+        return node_id(f"{self.line}.Alarm.{condition.alarm.code}.{path}", self.vendor_ns)
+
+    def _state_variables(self, condition: _Condition) -> list[ua.AddNodesItem]:
+        """The condition's state as variables (see the module docstring)."""
+        items: list[ua.AddNodesItem] = []
+        for name, _, _ in _TWO_STATES:
+            state = self._state_node(condition, name)
+            items.append(
+                _variable(
+                    state,
+                    condition.node,
+                    ObjectIds.HasComponent,
+                    name,
+                    ObjectIds.LocalizedText,
+                    ObjectIds.TwoStateVariableType,
+                )
+            )
+            items.append(
+                _variable(
+                    self._state_node(condition, f"{name}.Id"),
+                    state,
+                    ObjectIds.HasProperty,
+                    "Id",
+                    ObjectIds.Boolean,
+                    ObjectIds.PropertyType,
+                )
+            )
+        current = self._state_node(condition, "ShelvingState.CurrentState")
+        items.append(
+            _variable(
+                current,
+                condition.shelving_node,
+                ObjectIds.HasComponent,
+                "CurrentState",
+                ObjectIds.LocalizedText,
+                ObjectIds.FiniteStateVariableType,
+            )
+        )
+        items.append(
+            _variable(
+                self._state_node(condition, "ShelvingState.CurrentState.Id"),
+                current,
+                ObjectIds.HasProperty,
+                "Id",
+                ObjectIds.NodeId,
+                ObjectIds.PropertyType,
+            )
+        )
+        for name, _, data_type in _PLAIN_VARIABLES:
+            items.append(
+                _variable(
+                    self._state_node(condition, name),
+                    condition.node,
+                    ObjectIds.HasProperty if name == "Retain" else ObjectIds.HasComponent,
+                    name,
+                    data_type,
+                    ObjectIds.PropertyType if name == "Retain" else ObjectIds.BaseDataVariableType,
+                )
+            )
+        return items
+
+    async def _write_state(self, condition: _Condition) -> None:
+        """The condition's variables take the state its next event carries."""
+        flags = {
+            "EnabledState": True,
+            "ActiveState": condition.active,
+            "AckedState": condition.acked,
+            "ConfirmedState": condition.confirmed,
+        }
+        values: list[tuple[str, Any, ua.VariantType]] = []
+        for name, yes, no in _TWO_STATES:
+            flag = flags[name]
+            values.append(
+                (name, ua.LocalizedText(yes if flag else no), ua.VariantType.LocalizedText)
+            )
+            values.append((f"{name}.Id", flag, ua.VariantType.Boolean))
+        values += [
+            (
+                "ShelvingState.CurrentState",
+                ua.LocalizedText(condition.shelving),
+                ua.VariantType.LocalizedText,
+            ),
+            (
+                "ShelvingState.CurrentState.Id",
+                node_id(_SHELVING_IDS[condition.shelving]),
+                ua.VariantType.NodeId,
+            ),
+            ("Retain", condition.retained, ua.VariantType.Boolean),
+            ("Severity", condition.severity, ua.VariantType.UInt16),
+            ("Comment", ua.LocalizedText(condition.comment), ua.VariantType.LocalizedText),
+            ("ClientUserId", condition.user, ua.VariantType.String),
+        ]
+        now = timestamp(dt.datetime.now(dt.UTC))
+        for path, value, variant in values:
+            data = ua.DataValue(
+                Value=ua.Variant(value, variant), SourceTimestamp=now, ServerTimestamp=now
+            )
+            with contextlib.suppress(UaStatusCodeError):
+                await self.server.write_attribute_value(self._state_node(condition, path), data)
 
     async def _reference(self, node: ua.NodeId) -> None:
         if self.source is None:
@@ -341,6 +473,7 @@ class AlarmConditions:
         asyncua keeps a retained condition's event object itself)."""
         if self.events is None:
             return
+        await self._write_state(condition)
         event = copy.copy(self._template)
         self.events.event = event
         alarm = condition.alarm
@@ -425,6 +558,32 @@ def _object(
     return item
 
 
+def _variable(
+    node: ua.NodeId,
+    parent: ua.NodeId,
+    reference: int,
+    name: str,
+    data_type: int,
+    type_definition: int,
+) -> ua.AddNodesItem:
+    """A read-only variable of a condition's state (the standard browse names, namespace 0)."""
+    item = ua.AddNodesItem()
+    item.RequestedNewNodeId = node
+    item.BrowseName = ua.QualifiedName(name, 0)
+    item.NodeClass = ua.NodeClass.Variable
+    item.ParentNodeId = parent
+    item.ReferenceTypeId = node_id(reference)
+    item.TypeDefinition = node_id(type_definition)
+    attributes = ua.VariableAttributes()
+    attributes.DisplayName = ua.LocalizedText(name)
+    attributes.DataType = node_id(data_type)
+    attributes.ValueRank = -1
+    attributes.AccessLevel = ua.AccessLevel.CurrentRead.mask
+    attributes.UserAccessLevel = ua.AccessLevel.CurrentRead.mask
+    item.NodeAttributes = attributes
+    return item
+
+
 def _log_failure(task: asyncio.Task[Any]) -> None:
     if not task.cancelled() and task.exception() is not None:
         log.error("opcua: a condition's event failed", exc_info=task.exception())
@@ -446,6 +605,8 @@ class ConditionMethods:
             ((o.AcknowledgeableConditionType_Acknowledge,), self._acknowledge),
             ((o.AcknowledgeableConditionType_Confirm,), self._confirm),
             ((o.ConditionType_AddComment,), self._add_comment),
+            ((o.ConditionType_Enable,), self._enable),
+            ((o.ConditionType_Disable,), self._disable),
             (
                 (
                     o.ShelvedStateMachineType_TimedShelve,
@@ -493,6 +654,21 @@ class ConditionMethods:
         if found is None or len(args) != 2:
             return _code("BadNodeIdUnknown" if found is None else "BadArgumentsMissing")
         return await found[0].add_comment(found[1], *args)
+
+    async def _enable(self, parent: ua.NodeId, *args: Any) -> Any:
+        return self._not_supported("Enable", parent)
+
+    async def _disable(self, parent: ua.NodeId, *args: Any) -> Any:
+        return self._not_supported("Disable", parent)
+
+    def _not_supported(self, verb: str, parent: ua.NodeId) -> ua.StatusCode:
+        """Enable and Disable are refused: an N1 alarm cannot be switched off at the
+        controller, and a disabled condition would hide a live alarm from every alarm list
+        (shelving hides it from the lists that want that, for a bounded time)."""
+        found = self._find(parent)
+        if found is None:
+            return _code("BadNodeIdUnknown")
+        return found[0].not_supported(verb, found[1])
 
     async def _timed(self, parent: ua.NodeId, *args: Any) -> Any:
         found = self._find(parent)
