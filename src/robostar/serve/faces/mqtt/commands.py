@@ -56,6 +56,16 @@ def _text(params: Mapping[str, Any], name: str) -> str:
     return value
 
 
+def _job_file(params: Mapping[str, Any]) -> str:
+    value = params.get("file")
+    if isinstance(value, int) and not isinstance(value, bool):
+        raise UsageError(
+            f'file: expected a name such as "MAIN.JOB", not {value!r} (a JOB number goes as'
+            f' "number": {value})'
+        )
+    return _text(params, "file")
+
+
 def _mode(params: Mapping[str, Any]) -> JobMode:
     value = params.get("mode")
     if value not in ("auto", "step"):
@@ -73,7 +83,8 @@ def _bool(params: Mapping[str, Any], name: str) -> bool:
 COMMANDS: dict[str, Callable[[Mapping[str, Any]], tuple[Command[Any], ...]]] = {
     "servo": lambda p: (Servo(_int(p, "channel"), _bool(p, "on")),),
     "home": lambda p: (Home(_int(p, "channel")),),
-    "select_job": lambda p: (SelectJob(_int(p, "channel"), _text(p, "file")),),
+    # by name; by JOB number ("number") once running.resolve_params has found its name
+    "select_job": lambda p: (SelectJob(_int(p, "channel"), _job_file(p)),),
     "job_mode": lambda p: (SetJobMode(_int(p, "channel"), _mode(p)),),
     "start_job": lambda p: (StartJob(_int(p, "channel")),),
     # One step of the selected job: step mode, then start (the controller runs one step).

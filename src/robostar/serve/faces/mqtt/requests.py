@@ -25,6 +25,7 @@ from robostar.commands.base import Command
 from robostar.errors import RobostarError, UsageError
 from robostar.serve.faces.mqtt.commands import COMMANDS, ESTOP, make_commands, read_params
 from robostar.serve.faces.mqtt.connection import check_cancelled, command_options, keep_connected
+from robostar.serve.faces.mqtt.running import resolve_params
 from robostar.serve.faces.mqtt.settings import MqttSettings
 from robostar.serve.faces.mqtt.topics import Topics, response_topic_problem
 from robostar.serve.jsonable import jsonable
@@ -281,7 +282,7 @@ class CommandRequests:
             request_id = params.get("id")
             if topic_problem is not None:
                 raise UsageError(f"{topic_problem}; the command was not run")
-            commands = make_commands(name, params)
+            commands = make_commands(name, await resolve_params(self.line, name, params))
             for command in commands:
                 command.encode()  # every field's range, as the wire would refuse it
         except RobostarError as exc:

@@ -24,7 +24,7 @@ import aiomqtt
 from google.protobuf.message import DecodeError
 
 from robostar.errors import RobostarError, UsageError
-from robostar.serve.faces.mqtt.commands import make_commands, read_params
+from robostar.serve.faces.mqtt.commands import read_params
 from robostar.serve.faces.mqtt.connection import (
     check_cancelled,
     keep_connected,
@@ -34,6 +34,7 @@ from robostar.serve.faces.mqtt.connection import (
 from robostar.serve.faces.mqtt.leaves import channel_of, leaves, robot_of
 from robostar.serve.faces.mqtt.reporter import Reporter
 from robostar.serve.faces.mqtt.requests import STOP_NAMES
+from robostar.serve.faces.mqtt.running import prepare_commands
 from robostar.serve.faces.mqtt.settings import MqttSettings, SparkplugSettings
 from robostar.serve.faces.mqtt.sparkplug.session import (
     REBIRTH,
@@ -328,9 +329,7 @@ class SparkplugNode:
             if name not in self.settings.commands:
                 raise UsageError(f"command {name[:80]!r} is not enabled on this server")
             params = read_params(text)
-            commands = make_commands(name, params)
-            for command in commands:
-                command.encode()  # every field's range, as the wire would refuse it
+            commands = await prepare_commands(line, name, params)
         except RobostarError as exc:
             line.record(f"cmd/{name[:80]}", self.who, f"refused: {exc}")
             return {"ok": False, "error": str(exc), "kind": type(exc).__name__}
