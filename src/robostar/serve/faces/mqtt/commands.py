@@ -25,8 +25,11 @@ from robostar.types import JobMode
 __all__ = [
     "COMMANDS",
     "ESTOP",
+    "LEASE_COMMANDS",
+    "NAMES",
     "build_command",
     "build_commands",
+    "lease_seconds",
     "make_command",
     "make_commands",
     "read_params",
@@ -104,6 +107,27 @@ COMMANDS: dict[str, Callable[[Mapping[str, Any]], tuple[Command[Any], ...]]] = {
 the robostar commands it runs, in order (``step_job`` is two)."""
 
 
+LEASE_COMMANDS = frozenset(("take_control", "release_control"))
+"""Commands on the line's lease rather than the robot: ``take_control`` holds it for a sequence
+of commands (``seconds``, else the line's ``lease_ttl``, renewed by each command), and
+``release_control`` gives it back. A single command takes a free lease for itself only."""
+NAMES = frozenset(COMMANDS) | LEASE_COMMANDS
+"""Every name the allowlist may hold."""
+MAX_LEASE_SECONDS = 3600.0
+"""The longest ``take_control`` (as the HTTP API's ``?ttl=``)."""
+
+
+def lease_seconds(params: Mapping[str, Any]) -> float | None:
+    """``take_control``'s ``seconds`` (None: the line's ``lease_ttl``); UsageError when it is no
+    number, or not more than 0 and at most an hour."""
+    if params.get("seconds") is None:
+        return None
+    seconds = _float(params, "seconds")
+    if not 0 < seconds <= MAX_LEASE_SECONDS:
+        raise UsageError(f"seconds: more than 0 and at most {MAX_LEASE_SECONDS:g}, not {seconds:g}")
+    return seconds
+
+
 def read_params(payload: bytes) -> dict[str, Any]:
     """The message's JSON object; UsageError ("bad payload: ...") for anything else, whatever
     the bytes are (nesting too deep for the parser included). The caller caps the size.
@@ -127,7 +151,7 @@ def make_commands(name: str, params: Mapping[str, Any]) -> tuple[Command[Any], .
     """The commands, their parameters' types checked (UsageError), their ranges not yet."""
     make = COMMANDS.get(name)
     if make is None:
-        raise UsageError(f"unknown command {name!r} (commands: {', '.join(COMMANDS)})")
+        raise UsageError(f"unknown command {name!r} (commands: {', '.join(sorted(NAMES))})")
     return make(params)
 
 

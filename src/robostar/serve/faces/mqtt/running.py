@@ -1,4 +1,5 @@
-"""A named MQTT command made ready against its line, shared by the JSON tree and Sparkplug.
+"""A named MQTT command made ready against its line, and the lease's own commands run: shared
+by the JSON tree and Sparkplug.
 
 :mod:`commands` builds commands from parameters alone; a few need the line first: ``select_job``
 by JOB number looks the number up in the channel's file listing (FD, read afresh: a number
@@ -13,12 +14,13 @@ from typing import TYPE_CHECKING, Any
 from robostar.commands.base import Command
 from robostar.commands.files import ListFiles
 from robostar.errors import UsageError
-from robostar.serve.faces.mqtt.commands import make_commands
+from robostar.serve.faces.mqtt.commands import lease_seconds, make_commands
+from robostar.serve.lease import LeaseHeldError, Who
 
 if TYPE_CHECKING:
     from robostar.serve.line import Line
 
-__all__ = ["prepare_commands", "resolve_params"]
+__all__ = ["lease_request", "prepare_commands", "resolve_params"]
 
 
 async def resolve_params(line: Line, name: str, params: Mapping[str, Any]) -> dict[str, Any]:
@@ -55,3 +57,17 @@ async def prepare_commands(
     for command in commands:
         command.encode()  # every field's range, as the wire would refuse it
     return commands
+
+
+def lease_request(line: Line, who: Who, name: str, params: Mapping[str, Any]) -> dict[str, Any]:
+    """``take_control`` or ``release_control`` for ``who``: the answer's body. The line audits
+    the take, renewal, release or refusal; UsageError (a bad ``seconds``) before any of it."""
+    if name == "release_control":
+        return {"ok": True, "result": {"released": line.release_control(who)}}
+    seconds = lease_seconds(params)
+    try:
+        info = line.take_control(who, seconds)
+    except LeaseHeldError as exc:
+        return {"ok": False, "error": str(exc), "kind": type(exc).__name__}
+    until = round(info.expires_at, 3)
+    return {"ok": True, "result": {"holder": who.name, "face": who.face, "until": until}}

@@ -24,17 +24,18 @@ import aiomqtt
 from google.protobuf.message import DecodeError
 
 from robostar.errors import RobostarError, UsageError
-from robostar.serve.faces.mqtt.commands import read_params
+from robostar.serve.faces.mqtt.commands import LEASE_COMMANDS, read_params
 from robostar.serve.faces.mqtt.connection import (
     check_cancelled,
     keep_connected,
     new_client,
     wait_event,
 )
+from robostar.serve.faces.mqtt.control import CONTROL_KEY, control_sample, watch_control
 from robostar.serve.faces.mqtt.leaves import channel_of, leaves, robot_of
 from robostar.serve.faces.mqtt.reporter import Reporter
 from robostar.serve.faces.mqtt.requests import STOP_NAMES
-from robostar.serve.faces.mqtt.running import prepare_commands
+from robostar.serve.faces.mqtt.running import lease_request, prepare_commands
 from robostar.serve.faces.mqtt.settings import MqttSettings, SparkplugSettings
 from robostar.serve.faces.mqtt.sparkplug.session import (
     REBIRTH,
@@ -195,6 +196,10 @@ class SparkplugNode:
         snapshot = device.line.model.snapshot()
         for key, sample in snapshot.items():
             metrics += line_metrics(device.line, key, sample)
+        # who holds the line's control: declared here, its changes by exception as any value
+        control = control_sample(device.line)
+        metrics += line_metrics(device.line, CONTROL_KEY, control)
+        device.reporter.mark_sent(CONTROL_KEY, control)
         now = time.time()
         for command in sorted(self.settings.commands):
             metrics.append(Metric(f"cmd/{command}", "", now))
@@ -215,6 +220,7 @@ class SparkplugNode:
         device = self.devices[name]
         with device.line.model.subscribe(maxsize=10_000) as changes:
             feeder = asyncio.create_task(self._feed(device, changes))
+            watcher = asyncio.create_task(watch_control(device.line, device.reporter, device.wake))
             try:
                 while True:
                     check_cancelled()
@@ -229,6 +235,7 @@ class SparkplugNode:
                     await wait_event(device.wake, timeout)
             finally:
                 feeder.cancel()
+                watcher.cancel()
 
     async def _feed(self, device: _Device, changes: Any) -> None:
         async for change in changes:
@@ -329,6 +336,8 @@ class SparkplugNode:
             if name not in self.settings.commands:
                 raise UsageError(f"command {name[:80]!r} is not enabled on this server")
             params = read_params(text)
+            if name in LEASE_COMMANDS:
+                return lease_request(line, self.who, name, params)
             commands = await prepare_commands(line, name, params)
         except RobostarError as exc:
             line.record(f"cmd/{name[:80]}", self.who, f"refused: {exc}")
