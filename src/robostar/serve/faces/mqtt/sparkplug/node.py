@@ -5,7 +5,8 @@ application is configured, wait for its STATE to say online; then NBIRTH, and a 
 line that is up. Each line's pump reports its model's changes by exception (the JSON tree's
 reporter: deadband, rate cap) as DDATA by alias; a line going down is a DDEATH, coming back a
 DBIRTH. An NCMD ``Node Control/Rebirth`` births everything again. DCMD metrics ``cmd/<name>``
-(JSON parameters as text, as on the JSON tree) run commands when the face's commands are
+(JSON parameters as text, as on the JSON tree), and writes of the setpoints' own metrics
+(``ch1/speed``, ``io/out/0/3``: see :mod:`.setpoints`), run commands when the face's commands are
 enabled, through the same allowlist, lease and audit; the outcome is the DDATA metric
 ``cmd/<name>/result``. Births and data go out at QoS 0, as the specification asks.
 """
@@ -45,6 +46,7 @@ from robostar.serve.faces.mqtt.sparkplug.session import (
     SparkplugTopics,
     decode,
 )
+from robostar.serve.faces.mqtt.sparkplug.setpoints import SETPOINTS, setpoint_command
 from robostar.serve.jsonable import jsonable
 from robostar.serve.lease import Who
 from robostar.serve.model import Sample
@@ -300,17 +302,31 @@ class SparkplugNode:
             return
         for metric in payload.metrics:
             metric_name = metric.name or self.session.name_of(name, metric.alias) or ""
-            if not metric_name.startswith("cmd/") or metric_name.endswith("/result"):
-                device.line.record(
-                    f"DCMD {metric_name[:80]}", self.who, "refused: not a command metric"
-                )
-                continue
-            text = metric.string_value.encode() if metric.HasField("string_value") else b""
+            if metric_name.startswith("cmd/") and not metric_name.endswith("/result"):
+                command = metric_name[4:]
+                text = metric.string_value.encode() if metric.HasField("string_value") else b""
+            else:
+                # a write of a setpoint's own metric (ch1/speed): its command, same rules
+                try:
+                    setpoint = setpoint_command(metric_name, metric)
+                except UsageError as exc:
+                    device.line.record(f"DCMD {metric_name[:80]}", self.who, f"refused: {exc}")
+                    continue
+                if setpoint is None:
+                    shapes = ", ".join(("cmd/<name>", *SETPOINTS))
+                    device.line.record(
+                        f"DCMD {metric_name[:80]}",
+                        self.who,
+                        f"refused: not a command metric nor a writable setpoint ({shapes})",
+                    )
+                    continue
+                command, params = setpoint
+                text = json.dumps(params).encode()
             try:
-                lane = device.stops if metric_name[4:] in STOP_NAMES else device.commands
-                lane.put_nowait((metric_name[4:], text))
+                lane = device.stops if command in STOP_NAMES else device.commands
+                lane.put_nowait((command, text))
             except asyncio.QueueFull:
-                device.line.record(f"cmd/{metric_name[4:80]}", self.who, "refused: busy")
+                device.line.record(f"cmd/{command[:80]}", self.who, "refused: busy")
 
     async def work(self, name: str, stops: bool = False) -> None:
         """Run one device's commands (or its stops) one at a time; each outcome is a
