@@ -127,3 +127,27 @@ def command_request(name: str, text: str) -> bytes:
     n, t = name.encode(), text.encode()
     metric = bytes([0x0A, len(n)]) + n + bytes([0x20, 12, 0x7A, len(t)]) + t
     return bytes([0x12, len(metric)]) + metric
+
+
+def _varint_bytes(value: int) -> bytes:
+    out = bytearray()
+    value &= (1 << 64) - 1
+    while True:
+        byte, value = value & 0x7F, value >> 7
+        out.append(byte | (0x80 if value else 0))
+        if not value:
+            return bytes(out)
+
+
+def write_request(name: str, value: bool | int | str) -> bytes:
+    """A DCMD payload writing metric ``name``: Boolean (11), Int64 (4) or String (12)."""
+    n = name.encode()
+    if isinstance(value, bool):
+        typed = bytes([0x20, 11, 0x70, int(value)])
+    elif isinstance(value, int):
+        typed = bytes([0x20, 4, 0x58]) + _varint_bytes(value)
+    else:
+        t = value.encode()
+        typed = bytes([0x20, 12, 0x7A, len(t)]) + t
+    metric = bytes([0x0A, len(n)]) + n + typed
+    return bytes([0x12, len(metric)]) + metric

@@ -25,8 +25,11 @@ from robostar.types import JobMode
 __all__ = [
     "COMMANDS",
     "ESTOP",
+    "LEASE_COMMANDS",
+    "NAMES",
     "build_command",
     "build_commands",
+    "lease_seconds",
     "make_command",
     "make_commands",
     "read_params",
@@ -56,6 +59,16 @@ def _text(params: Mapping[str, Any], name: str) -> str:
     return value
 
 
+def _job_file(params: Mapping[str, Any]) -> str:
+    value = params.get("file")
+    if isinstance(value, int) and not isinstance(value, bool):
+        raise UsageError(
+            f'file: expected a name such as "MAIN.JOB", not {value!r} (a JOB number goes as'
+            f' "number": {value})'
+        )
+    return _text(params, "file")
+
+
 def _mode(params: Mapping[str, Any]) -> JobMode:
     value = params.get("mode")
     if value not in ("auto", "step"):
@@ -73,7 +86,8 @@ def _bool(params: Mapping[str, Any], name: str) -> bool:
 COMMANDS: dict[str, Callable[[Mapping[str, Any]], tuple[Command[Any], ...]]] = {
     "servo": lambda p: (Servo(_int(p, "channel"), _bool(p, "on")),),
     "home": lambda p: (Home(_int(p, "channel")),),
-    "select_job": lambda p: (SelectJob(_int(p, "channel"), _text(p, "file")),),
+    # by name; by JOB number ("number") once running.resolve_params has found its name
+    "select_job": lambda p: (SelectJob(_int(p, "channel"), _job_file(p)),),
     "job_mode": lambda p: (SetJobMode(_int(p, "channel"), _mode(p)),),
     "start_job": lambda p: (StartJob(_int(p, "channel")),),
     # One step of the selected job: step mode, then start (the controller runs one step).
@@ -91,6 +105,27 @@ COMMANDS: dict[str, Callable[[Mapping[str, Any]], tuple[Command[Any], ...]]] = {
 }
 """Every command the face can take, by topic name (the allowlist picks among them): each is
 the robostar commands it runs, in order (``step_job`` is two)."""
+
+
+LEASE_COMMANDS = frozenset(("take_control", "release_control"))
+"""Commands on the line's lease rather than the robot: ``take_control`` holds it for a sequence
+of commands (``seconds``, else the line's ``lease_ttl``, renewed by each command), and
+``release_control`` gives it back. A single command takes a free lease for itself only."""
+NAMES = frozenset(COMMANDS) | LEASE_COMMANDS
+"""Every name the allowlist may hold."""
+MAX_LEASE_SECONDS = 3600.0
+"""The longest ``take_control`` (as the HTTP API's ``?ttl=``)."""
+
+
+def lease_seconds(params: Mapping[str, Any]) -> float | None:
+    """``take_control``'s ``seconds`` (None: the line's ``lease_ttl``); UsageError when it is no
+    number, or not more than 0 and at most an hour."""
+    if params.get("seconds") is None:
+        return None
+    seconds = _float(params, "seconds")
+    if not 0 < seconds <= MAX_LEASE_SECONDS:
+        raise UsageError(f"seconds: more than 0 and at most {MAX_LEASE_SECONDS:g}, not {seconds:g}")
+    return seconds
 
 
 def read_params(payload: bytes) -> dict[str, Any]:
@@ -116,7 +151,7 @@ def make_commands(name: str, params: Mapping[str, Any]) -> tuple[Command[Any], .
     """The commands, their parameters' types checked (UsageError), their ranges not yet."""
     make = COMMANDS.get(name)
     if make is None:
-        raise UsageError(f"unknown command {name!r} (commands: {', '.join(COMMANDS)})")
+        raise UsageError(f"unknown command {name!r} (commands: {', '.join(sorted(NAMES))})")
     return make(params)
 
 

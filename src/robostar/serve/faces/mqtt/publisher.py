@@ -20,6 +20,7 @@ import aiomqtt
 
 from robostar.serve.faces.mqtt.buffer import StoreAndForward
 from robostar.serve.faces.mqtt.connection import REPLAY_WINDOW, check_cancelled, wait_event
+from robostar.serve.faces.mqtt.control import watch_control
 from robostar.serve.faces.mqtt.leaves import channel_of, robot_of
 from robostar.serve.faces.mqtt.payload import OFFLINE, encode
 from robostar.serve.faces.mqtt.reporter import Reporter
@@ -163,6 +164,7 @@ class ValuePublisher:
             for key, sample in self.line.model.snapshot().items():
                 self.reporter.offer(key, sample)
             feeder = asyncio.create_task(self._feed(changes))
+            watcher = asyncio.create_task(watch_control(self.line, self.reporter, self.wake))
             try:
                 while True:
                     check_cancelled()
@@ -183,6 +185,7 @@ class ValuePublisher:
                     await wait_event(self.wake, timeout)
             finally:
                 feeder.cancel()
+                watcher.cancel()
 
     async def _feed(self, changes: Any) -> None:
         async for change in changes:

@@ -50,6 +50,10 @@ class Reporter:
             out.append((key, sample))
         return out
 
+    def holds(self, key: str) -> bool:
+        """Whether a change of ``key`` waits to go out."""
+        return key in self._held
+
     @property
     def waiting(self) -> int:
         return len(self._held)

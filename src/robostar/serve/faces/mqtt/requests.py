@@ -23,8 +23,15 @@ from paho.mqtt.properties import Properties
 
 from robostar.commands.base import Command
 from robostar.errors import RobostarError, UsageError
-from robostar.serve.faces.mqtt.commands import COMMANDS, ESTOP, make_commands, read_params
+from robostar.serve.faces.mqtt.commands import (
+    ESTOP,
+    LEASE_COMMANDS,
+    NAMES,
+    make_commands,
+    read_params,
+)
 from robostar.serve.faces.mqtt.connection import check_cancelled, command_options, keep_connected
+from robostar.serve.faces.mqtt.running import lease_request, resolve_params
 from robostar.serve.faces.mqtt.settings import MqttSettings
 from robostar.serve.faces.mqtt.topics import Topics, response_topic_problem
 from robostar.serve.jsonable import jsonable
@@ -142,9 +149,9 @@ class CommandRequests:
                 )
                 self._refuse_later(client, message, name, problem)
                 continue
-            if name not in COMMANDS:
+            if name not in NAMES:
                 problem = UsageError(
-                    f"unknown command {short(name)!r} (commands: {', '.join(sorted(COMMANDS))})"
+                    f"unknown command {short(name)!r} (commands: {', '.join(sorted(NAMES))})"
                 )
                 self._refuse_later(client, message, name, problem)
                 continue
@@ -281,7 +288,11 @@ class CommandRequests:
             request_id = params.get("id")
             if topic_problem is not None:
                 raise UsageError(f"{topic_problem}; the command was not run")
-            commands = make_commands(name, params)
+            if name in LEASE_COMMANDS:
+                answer = lease_request(self.line, self.who, name, params)
+                await self._reply(client, message, reply_to, answer, request_id)
+                return
+            commands = make_commands(name, await resolve_params(self.line, name, params))
             for command in commands:
                 command.encode()  # every field's range, as the wire would refuse it
         except RobostarError as exc:

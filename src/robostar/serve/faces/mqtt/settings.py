@@ -9,7 +9,7 @@ from typing import Any
 from urllib.parse import urlsplit
 
 from robostar.errors import UsageError
-from robostar.serve.faces.mqtt.commands import COMMANDS, ESTOP
+from robostar.serve.faces.mqtt.commands import ESTOP, NAMES
 from robostar.serve.faces.mqtt.topics import check_prefix
 
 __all__ = ["MqttSettings", "SparkplugSettings", "settings_from"]
@@ -155,9 +155,9 @@ def settings_from(options: Mapping[str, Any]) -> MqttSettings:
     commands: set[str] = set()
     if commands_option.get("enabled", False) is True:
         allow = commands_option.get("allow", [])
-        if isinstance(allow, str) or not all(name in COMMANDS for name in allow):
+        if isinstance(allow, str) or not all(name in NAMES for name in allow):
             raise UsageError(
-                f"mqtt.commands.allow: {allow!r}: names among {', '.join(sorted(COMMANDS))}"
+                f"mqtt.commands.allow: {allow!r}: names among {', '.join(sorted(NAMES))}"
             )
         commands.update(allow)
         if commands_option.get("estop", False) is True:

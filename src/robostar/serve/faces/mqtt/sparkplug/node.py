@@ -5,7 +5,8 @@ application is configured, wait for its STATE to say online; then NBIRTH, and a 
 line that is up. Each line's pump reports its model's changes by exception (the JSON tree's
 reporter: deadband, rate cap) as DDATA by alias; a line going down is a DDEATH, coming back a
 DBIRTH. An NCMD ``Node Control/Rebirth`` births everything again. DCMD metrics ``cmd/<name>``
-(JSON parameters as text, as on the JSON tree) run commands when the face's commands are
+(JSON parameters as text, as on the JSON tree), and writes of the setpoints' own metrics
+(``ch1/speed``, ``io/out/0/3``: see :mod:`.setpoints`), run commands when the face's commands are
 enabled, through the same allowlist, lease and audit; the outcome is the DDATA metric
 ``cmd/<name>/result``. Births and data go out at QoS 0, as the specification asks.
 """
@@ -24,16 +25,18 @@ import aiomqtt
 from google.protobuf.message import DecodeError
 
 from robostar.errors import RobostarError, UsageError
-from robostar.serve.faces.mqtt.commands import make_commands, read_params
+from robostar.serve.faces.mqtt.commands import LEASE_COMMANDS, read_params
 from robostar.serve.faces.mqtt.connection import (
     check_cancelled,
     keep_connected,
     new_client,
     wait_event,
 )
+from robostar.serve.faces.mqtt.control import CONTROL_KEY, control_sample, watch_control
 from robostar.serve.faces.mqtt.leaves import channel_of, leaves, robot_of
 from robostar.serve.faces.mqtt.reporter import Reporter
 from robostar.serve.faces.mqtt.requests import STOP_NAMES
+from robostar.serve.faces.mqtt.running import lease_request, prepare_commands
 from robostar.serve.faces.mqtt.settings import MqttSettings, SparkplugSettings
 from robostar.serve.faces.mqtt.sparkplug.session import (
     REBIRTH,
@@ -43,6 +46,7 @@ from robostar.serve.faces.mqtt.sparkplug.session import (
     SparkplugTopics,
     decode,
 )
+from robostar.serve.faces.mqtt.sparkplug.setpoints import SETPOINTS, setpoint_command
 from robostar.serve.jsonable import jsonable
 from robostar.serve.lease import Who
 from robostar.serve.model import Sample
@@ -194,6 +198,10 @@ class SparkplugNode:
         snapshot = device.line.model.snapshot()
         for key, sample in snapshot.items():
             metrics += line_metrics(device.line, key, sample)
+        # who holds the line's control: declared here, its changes by exception as any value
+        control = control_sample(device.line)
+        metrics += line_metrics(device.line, CONTROL_KEY, control)
+        device.reporter.mark_sent(CONTROL_KEY, control)
         now = time.time()
         for command in sorted(self.settings.commands):
             metrics.append(Metric(f"cmd/{command}", "", now))
@@ -214,6 +222,7 @@ class SparkplugNode:
         device = self.devices[name]
         with device.line.model.subscribe(maxsize=10_000) as changes:
             feeder = asyncio.create_task(self._feed(device, changes))
+            watcher = asyncio.create_task(watch_control(device.line, device.reporter, device.wake))
             try:
                 while True:
                     check_cancelled()
@@ -228,6 +237,7 @@ class SparkplugNode:
                     await wait_event(device.wake, timeout)
             finally:
                 feeder.cancel()
+                watcher.cancel()
 
     async def _feed(self, device: _Device, changes: Any) -> None:
         async for change in changes:
@@ -292,17 +302,31 @@ class SparkplugNode:
             return
         for metric in payload.metrics:
             metric_name = metric.name or self.session.name_of(name, metric.alias) or ""
-            if not metric_name.startswith("cmd/") or metric_name.endswith("/result"):
-                device.line.record(
-                    f"DCMD {metric_name[:80]}", self.who, "refused: not a command metric"
-                )
-                continue
-            text = metric.string_value.encode() if metric.HasField("string_value") else b""
+            if metric_name.startswith("cmd/") and not metric_name.endswith("/result"):
+                command = metric_name[4:]
+                text = metric.string_value.encode() if metric.HasField("string_value") else b""
+            else:
+                # a write of a setpoint's own metric (ch1/speed): its command, same rules
+                try:
+                    setpoint = setpoint_command(metric_name, metric)
+                except UsageError as exc:
+                    device.line.record(f"DCMD {metric_name[:80]}", self.who, f"refused: {exc}")
+                    continue
+                if setpoint is None:
+                    shapes = ", ".join(("cmd/<name>", *SETPOINTS))
+                    device.line.record(
+                        f"DCMD {metric_name[:80]}",
+                        self.who,
+                        f"refused: not a command metric nor a writable setpoint ({shapes})",
+                    )
+                    continue
+                command, params = setpoint
+                text = json.dumps(params).encode()
             try:
-                lane = device.stops if metric_name[4:] in STOP_NAMES else device.commands
-                lane.put_nowait((metric_name[4:], text))
+                lane = device.stops if command in STOP_NAMES else device.commands
+                lane.put_nowait((command, text))
             except asyncio.QueueFull:
-                device.line.record(f"cmd/{metric_name[4:80]}", self.who, "refused: busy")
+                device.line.record(f"cmd/{command[:80]}", self.who, "refused: busy")
 
     async def work(self, name: str, stops: bool = False) -> None:
         """Run one device's commands (or its stops) one at a time; each outcome is a
@@ -328,9 +352,9 @@ class SparkplugNode:
             if name not in self.settings.commands:
                 raise UsageError(f"command {name[:80]!r} is not enabled on this server")
             params = read_params(text)
-            commands = make_commands(name, params)
-            for command in commands:
-                command.encode()  # every field's range, as the wire would refuse it
+            if name in LEASE_COMMANDS:
+                return lease_request(line, self.who, name, params)
+            commands = await prepare_commands(line, name, params)
         except RobostarError as exc:
             line.record(f"cmd/{name[:80]}", self.who, f"refused: {exc}")
             return {"ok": False, "error": str(exc), "kind": type(exc).__name__}
