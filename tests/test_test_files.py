@@ -51,7 +51,7 @@ SCENARIOS = {
 }
 """Files of a folder whose scenario spans the package's modules, with what they cover."""
 
-PROVENANCE = re.compile(r"\breview|found by", re.IGNORECASE)
+PROVENANCE = re.compile(r"\breview|found by|\bfinding|\(F\d+\b", re.IGNORECASE)
 """Words that tell where a case came from instead of what it guards."""
 
 
@@ -130,3 +130,4 @@ def test_the_checks_find_provenance_and_a_missing_header(tmp_path: Path) -> None
     assert header is not None and PROVENANCE.search(header)
     assert _header(bare) is None
     assert not PROVENANCE.search("a preview before the restore")
+    assert PROVENANCE.search("Retained command messages (F1): ...")
