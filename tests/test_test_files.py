@@ -17,16 +17,20 @@ import pytest
 
 TESTS = Path(__file__).parent
 
-FOLDERS: dict[str, str | None] = {
+FOLDERS: dict[str, str | tuple[str, ...] | None] = {
     "backup": "robostar.backup",
     "cli": "robostar.cli",
+    "client": ("robostar.client", "robostar.transport"),
     "commands": "robostar.commands",
     "controller_role": "robostar.controller_role",
+    "protocol": "robostar.protocol",
     "serve": "robostar.serve",
     "serve/faces": "robostar.serve.faces",
     "serve/faces/n1": "robostar.serve.faces.n1",
     "serve_modbus": "robostar.serve.faces.modbus",
+    "serve_mqtt": "robostar.serve.faces.mqtt",
     "serve_opcua": "robostar.serve.faces.opcua",
+    "serve_web": "robostar.serve.faces.web",
     "sim": "robostar.sim",
     # Folders of whole-system suites, named after what they exercise rather than one package:
     "api": None,
@@ -35,8 +39,8 @@ FOLDERS: dict[str, str | None] = {
     "plugin": None,
     "reliability": None,
 }
-"""Test folder -> the package whose modules its files are named after (None: a suite folder whose
-files need only the docstring rule)."""
+"""Test folder -> the package (or packages) whose modules its files are named after (None: a suite
+folder whose files need only the docstring rule)."""
 
 IN_FLUX = ("sim/test_journal*", "serve/test_lease*", "reliability/test_history*")
 """Files being rewritten elsewhere right now: checked once they land."""
@@ -47,7 +51,7 @@ SCENARIOS = {
 }
 """Files of a folder whose scenario spans the package's modules, with what they cover."""
 
-PROVENANCE = re.compile(r"review|found by", re.IGNORECASE)
+PROVENANCE = re.compile(r"\breview|found by|\bfinding|\(F\d+\b", re.IGNORECASE)
 """Words that tell where a case came from instead of what it guards."""
 
 
@@ -99,13 +103,15 @@ def test_each_file_opens_with_what_it_guards(path: Path) -> None:
 @pytest.mark.parametrize("path", _test_files(), ids=_ids(_test_files()))
 def test_each_file_is_named_after_a_module_of_its_package(path: Path) -> None:
     folder = path.parent.relative_to(TESTS).as_posix()
-    package = FOLDERS[folder]
-    if package is None or path.relative_to(TESTS).as_posix() in SCENARIOS:
+    packages = FOLDERS[folder]
+    if packages is None or path.relative_to(TESTS).as_posix() in SCENARIOS:
         return
+    if isinstance(packages, str):
+        packages = (packages,)
     stem = path.stem.removeprefix("test_")
-    modules = _module_names(package)
+    modules = set().union(*(_module_names(package) for package in packages))
     assert any(stem == name or stem.startswith(f"{name}_") for name in modules), (
-        f"{path.name} names no module of {package} (test_<module>[_<scenario>].py; "
+        f"{path.name} names no module of {', '.join(packages)} (test_<module>[_<scenario>].py; "
         f"modules: {', '.join(sorted(modules))})"
     )
 
@@ -123,3 +129,5 @@ def test_the_checks_find_provenance_and_a_missing_header(tmp_path: Path) -> None
     header = _header(told)
     assert header is not None and PROVENANCE.search(header)
     assert _header(bare) is None
+    assert not PROVENANCE.search("a preview before the restore")
+    assert PROVENANCE.search("Retained command messages (F1): ...")

@@ -1,4 +1,4 @@
-"""The clients' methods as tools see them (issue #13): real signatures and docstrings for help(),
+"""The clients' methods as tools see them: real signatures and docstrings for help(),
 inspect, ``unittest.mock.create_autospec`` and mypy, generated from the plans and never stale."""
 
 from __future__ import annotations

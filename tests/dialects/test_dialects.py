@@ -1,5 +1,5 @@
 """The client against every dialect of the simulator: each writes its answers in another form
-the manual allows (issue #19), and download, backup, restore and every file, global and point
+the manual allows, and download, backup, restore and every file, global and point
 command must work against all of them, so a strict reading can never come back."""
 
 from __future__ import annotations

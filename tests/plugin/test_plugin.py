@@ -1,5 +1,5 @@
 """The pytest plugin as an integrator uses it: a test file of theirs, run by pytest, with
-nothing but the fixtures (issue #13)."""
+nothing but the fixtures."""
 
 from __future__ import annotations
 

@@ -5,7 +5,7 @@ device server with latency. A request other than a stop waits the whole ``resync
 answer meets RST instead of landing on it; a stop (CF, CD, CI, BG) goes out after
 ``abort_gap``. A stop's answer is a bare flag, so data arriving in its exchange is the aborted
 exchange's and is ignored; after an early stop the whole gap runs again before anything else.
-The clock is set by hand, as in test_link.py.
+The clock is set by hand, as in the other test_link_*.py files.
 """
 
 from __future__ import annotations

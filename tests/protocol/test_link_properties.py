@@ -852,7 +852,7 @@ def check_read_boundaries(
 
 
 # Reads are cut between frames only: FrameDecoder's own tests cut inside frames, and a link that
-# ends an exchange with RST drops the unfinished frame it is reading (see test_link.py).
+# ends an exchange with RST drops the unfinished frame it is reading (see test_link_resync.py).
 @given(st.lists(st.tuples(CONTROLLER_INPUT, st.booleans()), max_size=12))
 def test_a_read_boundary_changes_what_the_controller_does_only_inside_a_turn_cut_short(
     inputs: list[tuple[bytes, bool]],

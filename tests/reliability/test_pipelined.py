@@ -1,4 +1,4 @@
-"""Pipelined requests under every fault (issue #11): a host that writes two requests at once
+"""Pipelined requests under every fault: a host that writes two requests at once
 (no robostar client does; third-party hosts and a line shared badly do) must never crash the
 simulator, make it carry a state change out twice, or leave the line unusable, whatever byte of
 the pair a fault hits."""

@@ -1,5 +1,5 @@
 """The program version store: a version per change of a file's text (not per read), texts kept
-once by hash, the retention bound (and the texts no version holds deleted), versions found by
+once by hash, the retention bound (and the texts no version holds deleted), versions looked up by
 number or hash, line diffs, and the same behaviour on disk as in memory."""
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
 """The MQTT face against a real Mosquitto: retained state, last wills, store and forward,
-report by exception, commands (issue #15)."""
+report by exception, commands."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The command size cap before a message is in memory (F5): the face tells the broker its MQTT 5
+"""The command size cap before a message is in memory: the face tells the broker its MQTT 5
 Maximum Packet Size on CONNECT, so the broker drops a command far over ``max_payload`` instead
 of sending it (a flood of 4 MiB messages took the face from 41 to 418 MiB)."""
 

@@ -1,5 +1,5 @@
-"""Store and forward after a reconnect: live values are never stuck in the buffer (F3), and the
-replay ends while the robot keeps moving, behind a broker with latency (F2)."""
+"""Store and forward after a reconnect: live values are never stuck in the buffer, and the
+replay ends while the robot keeps moving, behind a broker with latency."""
 
 from __future__ import annotations
 

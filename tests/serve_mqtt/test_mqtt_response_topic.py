@@ -1,4 +1,4 @@
-"""A request's response topic inside the face's own tree (F6): the face would publish its answer
+"""A request's response topic inside the face's own tree: the face would publish its answer
 there itself, and take it as a command (an E-stop nobody sent; a client allowed only one line's
 ``cmd/speed`` stopping another line). Refused and audited, as any bad response topic."""
 

@@ -1,4 +1,4 @@
-"""Retained command messages (F1): a command left retained in the broker must not run at every
+"""Retained command messages: a command left retained in the broker must not run at every
 (re)connect of the face, and the empty retained publish that clears one must not run an E-stop."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Running the cell over MQTT (issue #31): home, job select, step, start and stop, and
+"""Running the cell over MQTT: home, job select, step, start and stop, and
 reset_alarms as allowlisted commands, each through the lease and the audit log, answered on the
 result topic; a step is step mode then one start; a name not allowed stays refused."""
 

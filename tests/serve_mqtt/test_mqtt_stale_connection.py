@@ -1,4 +1,4 @@
-"""A late failure of an old connection (F7): a publish still out on the connection that went
+"""A late failure of an old connection: a publish still out on the connection that went
 away fails (times out) after the face has connected again; it must not drop the new, healthy
 connection, and a kick left from before a connection must not end the next one."""
 

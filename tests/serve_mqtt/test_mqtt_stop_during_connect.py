@@ -1,6 +1,6 @@
-"""A stop that lands while the face is connecting (F7's hang): on Python 3.11 a cancellation
+"""A stop that lands while the face is connecting ends the server: on Python 3.11 a cancellation
 racing with aiomqtt's own timeouts (asyncio.wait_for) can be swallowed, and the connection
-task then went on to wait on the new connection for ever, so the server never stopped."""
+task must not then wait on the new connection for ever."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""A stop behind a flood (F8): thousands of ordinary commands, then one ``estop``. The stop has
+"""A stop behind a flood: thousands of ordinary commands, then one ``estop``. The stop has
 its own MQTT connection and queue, and the reader never waits on a refusal's answer, so the
 E-stop runs within a second or two however many commands are refused busy."""
 

@@ -1,4 +1,4 @@
-"""The face's tasks survive their failures (F10): an SQLite error in the store-and-forward buffer
+"""The face's tasks survive their failures: an SQLite error in the store-and-forward buffer
 (a full disk) loses that change, counted, and the pump keeps going; a task that ends with an
 error anyway is logged and started again."""
 

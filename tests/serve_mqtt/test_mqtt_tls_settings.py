@@ -1,5 +1,5 @@
-"""Client certificates without TLS (F11): ``cert``/``key`` on an ``mqtt://`` URL were accepted
-and silently unused, so the face connected in clear (its password too). Refused, clearly."""
+"""Client certificates without TLS: ``cert``/``key`` on an ``mqtt://`` URL would be silently
+unused, the face connecting in clear (its password too), so they are refused, clearly."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The JSON tree as a Unified Namespace (issue #29): positions as named axes with units, one
+"""The JSON tree as a Unified Namespace: positions as named axes with units, one
 topic per I/O signal beside the port, only the controller's channels, an unknown command named
 unknown, live (not historical) first values and one ``online true`` after ``info`` at a start
 with the broker up, and the retained values marked ``offline`` after a clean stop."""

@@ -1,6 +1,6 @@
-"""The dashboard against what a review found: DNS rebinding, sessions outliving a sign-out or a
-user, bodies read before the guards, refusals missing from the audit log, sign-ins from one
-address under many names, a backup that failed on a two-channel controller, non-ASCII tokens."""
+"""The dashboard's guards: DNS rebinding refused, no session outliving a sign-out or its user,
+no body read before the guards, every refusal in the audit log, sign-ins from one address under
+many names held back, the backup of a two-channel controller, non-ASCII tokens."""
 
 from __future__ import annotations
 

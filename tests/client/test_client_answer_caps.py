@@ -24,7 +24,7 @@ from robostar.protocol.frame import encode_packet
 from robostar.protocol.link import MAX_MULTI_PACKETS
 from robostar.types import AlarmRecord, FileRecord
 
-from .test_hostile_controller import STATUS, Scripted, client
+from .test_client_hostile_controller import STATUS, Scripted, client
 
 pytestmark = pytest.mark.timeout(60)
 
@@ -47,7 +47,7 @@ def _parameters(robot: Client) -> Any:
 
 def _answer(command: Command[Any], count: int) -> list[bytes]:
     """A legitimate answer of ``command`` holding ``count`` packets, END included. FD's and
-    FH's packets all differ (a copy of one is a resend: tests/client/test_resend_limit.py)."""
+    FH's packets all differ (a copy of one is a resend: test_client_resend_limit.py)."""
     if isinstance(command, ListFiles):
         files = [replace(FILE, name=f"R{n:04d}.JOB") for n in range(count - 1)]
         return command.encode_answer(tuple(files))

@@ -1,10 +1,9 @@
 """The quiet gap after the host's own abort, over a line with real latency.
 
 A serial device server with latency holds an answer on its way for longer than any short gap.
-A reviewer cancelled ``read_global_int(10)`` on such a line (0.3 s each way) and the next
-``read_global_int(20)`` returned g10's value: the host waited only ``abort_gap`` (50 ms) after
-its RST, and g10's answer, already on its way, landed on the next request. Now only a stop goes
-out after ``abort_gap``; any other request waits the whole gap.
+A ``read_global_int(10)`` cancelled on such a line (0.3 s each way) must not hand its answer,
+still on its way, to the next ``read_global_int(20)``: only a stop goes out after ``abort_gap``
+(50 ms) behind the host's RST; any other request waits the whole gap.
 
 The line here is real: the simulator over TCP, behind a loopback relay that holds every chunk
 0.3 s in each direction, as a device server with latency does.

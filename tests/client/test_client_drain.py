@@ -117,7 +117,7 @@ def _read_right_after(first: Callable[[bytes, int], Any]) -> int:
     2 ms after that call returns (every later request answered in 20 ms with 101 x index)."""
     from robostar.transport import PeerTransport
 
-    from .test_hostile_controller import Scripted
+    from .test_client_hostile_controller import Scripted
 
     def script(data: bytes, n: int) -> Any:
         if n == 1:

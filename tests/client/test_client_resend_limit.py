@@ -17,7 +17,7 @@ from robostar.protocol.frame import encode_packet
 from robostar.protocol.link import MAX_RESENDS
 from robostar.types import FileRecord
 
-from .test_hostile_controller import STATUS, Scripted, client
+from .test_client_hostile_controller import STATUS, Scripted, client
 
 pytestmark = pytest.mark.timeout(60)
 

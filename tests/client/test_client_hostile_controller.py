@@ -1,6 +1,6 @@
 """The client against a controller written as a script: doubled NAKs, endless answers, absurd
-waits, repeated answers, slow controllers. Each test is a finding of issue #11 or #19 that once
-made a command run twice, hang or grow without bound.
+waits, repeated answers, slow controllers: none makes a command run twice, hang or grow
+without bound.
 
 The scripted controller answers by rules, byte for byte, through an in-process line: what it
 receives and executes is counted, so "never twice" is checked at the controller.

@@ -203,7 +203,7 @@ def test_a_state_change_cancelled_in_the_gap_after_a_stale_packet_was_reset_was_
     from robostar.protocol.packets import make_answer
     from robostar.transport import AsyncPeerTransport
 
-    from .test_hostile_controller import Scripted
+    from .test_client_hostile_controller import Scripted
 
     stale = encode_packet(make_answer(0x30, b"%6d" % 1010))
     peer = Scripted(lambda data, n: [(0.5, stale)] if n == 1 else [])
