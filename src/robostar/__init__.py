@@ -25,6 +25,7 @@ from robostar.client import (
 )
 from robostar.errors import (
     AnswerTooLongError,
+    ControlHeldError,
     ControllerError,
     FieldError,
     FrameError,
@@ -80,6 +81,7 @@ __all__ = [
     "ChannelInfo",
     "ChannelStatus",
     "Client",
+    "ControlHeldError",
     "ControllerError",
     "ControllerInfo",
     "CoordSystem",

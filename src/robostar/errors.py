@@ -74,8 +74,10 @@ Internal signals, caught inside the package that raises them (never seen by a ca
       _Bad (Exception)                        a state file's value is wrong
     robostar.serve.http_guard
       BodyTooLarge (starlette.HTTPException)  an HTTP body grew past the limit (HTTP 413)
-    robostar.serve.faces.web.app
-      _Forbidden (Exception)                  a dashboard request is refused (HTTP status)
+    robostar.serve.faces.web.deps
+      Forbidden (Exception)                   a dashboard request is refused (HTTP status)
+    robostar.serve.faces.mqtt.sparkplug.session
+      NeedsBirth (Exception)                  a DDATA cannot carry a metric: birth the device
     robostar.serve.faces.modbus.runner
       _Refusal (RobostarError)                a Modbus write is refused (its reason register)
     robostar.cli.session

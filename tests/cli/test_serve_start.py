@@ -86,7 +86,7 @@ def test_robostar_serve_without_audit_options_records_a_write_in_the_default_fil
         if proc.poll() is None:
             proc.kill()
             proc.wait()
-    assert "SetSpeed(channel=1, speed=44)" in path.read_text()
+    assert "SetSpeed(channel=1, speed=4.4 %)" in path.read_text()  # 44 ‰, said in %
 
 
 def test_the_start_summary_never_shows_a_password_of_the_mqtt_url() -> None:

@@ -18,7 +18,7 @@ from robostar.serve import LineConfig, LineServer, ServeConfig
 from robostar.sim.controller import VirtualController
 from robostar.sim.listeners import SimServer
 
-from .line_fakes import FaultySim, n1_server
+from tests.serve.line_fakes import FaultySim, n1_server
 
 _AA = encode_packet(ReadStatus().encode())
 
