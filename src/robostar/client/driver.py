@@ -19,7 +19,7 @@ from collections.abc import Generator
 from dataclasses import dataclass
 from typing import Any, TypeVar, cast
 
-from robostar.client.exchange import Exchange, Outcome
+from robostar.client.exchange import Exchange, Outcome, Progress
 from robostar.commands.base import Command
 from robostar.commands.files import DownloadFile, UploadFile, parse_point_line
 from robostar.commands.status import ReadInfo, ReadStatus
@@ -46,10 +46,13 @@ __all__ = [
     "FENCES",
     "NOT_DECODED",
     "CommandPlan",
+    "FollowUp",
+    "FollowUpPlan",
     "Policy",
     "command_plan",
     "decode",
     "decoded_at_once",
+    "follow_up",
     "note_cancelled",
     "upload_matches",
 ]
@@ -217,6 +220,41 @@ def decoded_at_once(command: Command[T], exchange: Exchange) -> T | _NotDecoded:
         except (MalformedAnswerError, FieldError):  # decode()'s errors, before it wraps them
             pass
     return NOT_DECODED
+
+
+@dataclass(frozen=True, slots=True)
+class FollowUp:
+    """One more exchange the rules ask for: ``command`` (``retry``: the same command again,
+    to be resent as a retry - :meth:`~robostar.protocol.link.HostLink.retry_next`)."""
+
+    command: Command[Any]
+    retry: bool
+    progress: Progress | None
+
+
+FollowUpPlan = Generator[FollowUp, Exchange, T]
+"""Yields the next exchange to run, receives it once run, returns the command's result."""
+
+
+def follow_up(
+    command: Command[T], first: Exchange, policy: Policy, progress: Progress | None
+) -> FollowUpPlan[T]:
+    """The rules after ``command``'s first exchange, when :func:`decoded_at_once` could not
+    give the result: the part both clients share, driven by each one's own I/O loop
+    (``run_plan`` / ``run_plan_async`` with an exchange as the effect). Only a retry of the
+    command keeps ``progress``; KD and FA follow-ups report none. The usual case never comes
+    here: the clients decode it inline, which keeps the hot path without a generator."""
+    plan = command_plan(command, policy)
+    next(plan)  # the rules always ask for the command first: ``first`` is its exchange
+    outcome = first.outcome()
+    while True:
+        try:
+            request = plan.send(outcome)
+        except StopIteration as done:
+            return cast(T, done.value)
+        again = request is command  # a retry: the rules ask for the same call again
+        exchange = yield FollowUp(request, again, progress if again else None)
+        outcome = exchange.outcome()
 
 
 def command_plan(command: Command[T], policy: Policy) -> CommandPlan[T]:

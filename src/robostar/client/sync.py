@@ -7,11 +7,11 @@ import time
 import weakref
 from collections.abc import Callable
 from types import TracebackType
-from typing import Any, Self, TypeVar, cast
+from typing import Any, Self, TypeVar
 
 from robostar.client._sync_face import SyncOperations
 from robostar.client.core import DRAIN_READS, ClientBase, Settings, check_keepalive
-from robostar.client.driver import NOT_DECODED, command_plan, decoded_at_once
+from robostar.client.driver import NOT_DECODED, FollowUp, decoded_at_once, follow_up
 from robostar.client.exchange import Exchange, Progress
 from robostar.client.jog import Jog, jog_start
 from robostar.client.locks import PriorityLock
@@ -139,21 +139,15 @@ class Client(SyncOperations, ClientBase):
             result = decoded_at_once(command, exchange)
             if result is not NOT_DECODED:
                 return result
-            outcome = exchange.outcome()
-            plan = command_plan(command, self._policy)
-            request = next(plan)  # the rules always ask for the command first
-            while True:
-                try:
-                    request = plan.send(outcome)
-                except StopIteration as done:
-                    return cast(R, done.value)
-                again = request is command  # a retry: the rules ask for the same call again
-                if again:
-                    self._link.retry_next()
-                exchange = self._exchange(request, progress if again else None)
-                outcome = exchange.outcome()
+            return run_plan(follow_up(command, exchange, self._policy, progress), self._follow)
         finally:
             lock.release()
+
+    def _follow(self, step: FollowUp) -> Exchange:
+        """Run one exchange the rules asked for (driver.follow_up)."""
+        if step.retry:
+            self._link.retry_next()
+        return self._exchange(step.command, step.progress)
 
     # -- the line -------------------------------------------------------------------------
     def _exchange(self, command: Command[Any], progress: Progress | None) -> Exchange:

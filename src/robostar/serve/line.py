@@ -36,6 +36,7 @@ from robostar.errors import (
 )
 from robostar.serve.audit import AuditLog
 from robostar.serve.audit_words import describe
+from robostar.serve.backoff import Backoff
 from robostar.serve.config import LineConfig
 from robostar.serve.jog_guard import JogGuard
 from robostar.serve.lease import (
@@ -96,7 +97,8 @@ MAX_QUEUED_READS = 256
 instead of making every later request, and the poller, wait behind it."""
 _MAX_TIMEOUTS = 3
 """Consecutive reply timeouts after which the line is taken for down and reopened."""
-_BACKOFF = (0.2, 0.5, 1.0, 2.0, 5.0, 10.0)
+_RECONNECT = Backoff(initial=0.2, factor=2.0, cap=10.0)
+"""The waits between attempts to reopen a lost line: 0.2 s doubling up to 10 s."""
 
 
 def _describe(command: Command[Any]) -> str:
@@ -457,7 +459,7 @@ class Line:
                     self._fail_queued(
                         LineDownError(f"line {self.name} is down: {self.health.last_error}")
                     )
-                    await asyncio.sleep(_BACKOFF[min(attempt, len(_BACKOFF) - 1)])
+                    await asyncio.sleep(_RECONNECT.delay(attempt))
                     attempt += 1
                     continue
                 attempt = 0

@@ -20,6 +20,7 @@ from paho.mqtt.packettypes import PacketTypes
 from paho.mqtt.properties import Properties
 from paho.mqtt.subscribeoptions import SubscribeOptions
 
+from robostar.serve.backoff import Backoff
 from robostar.serve.faces.mqtt.settings import MqttSettings
 
 __all__ = [
@@ -157,19 +158,23 @@ async def keep_connected(
     """Connect with a client from ``connect()`` and run ``session`` on the connection until it
     fails; then ``lost()`` and again, backing off up to ``reconnect_max`` (reset once a
     connection is made). Runs until cancelled."""
-    backoff = 0.5
+    backoff = Backoff(initial=0.5, factor=2.0, cap=reconnect_max)
+    attempt = 0
     while True:
         try:
             async with connect() as client:
                 # A stop that raced the connect may have been swallowed (aiomqtt's
                 # wait_for on 3.11): look before waiting on this connection for good.
                 check_cancelled()
-                backoff = 0.5
+                attempt = 0
                 await session(client)
         except (aiomqtt.MqttError, TimeoutError) as exc:  # a replay's publish may time out
             check_cancelled()
-            log.warning("mqtt %s: %s; retrying in %.1f s", label, exc, backoff)
+            wait = backoff.delay(attempt)
+            log.warning("mqtt %s: %s; retrying in %.1f s", label, exc, wait)
+        else:
+            wait = backoff.delay(attempt)
         finally:
             lost()
-        await asyncio.sleep(backoff)
-        backoff = min(backoff * 2, reconnect_max)
+        await asyncio.sleep(wait)
+        attempt += 1
