@@ -10,6 +10,8 @@ import threading
 import time
 from pathlib import Path
 
+from tests.serve.line_fakes import FaultySim, n1_server
+
 import robostar
 from robostar.commands.status import ReadStatus
 from robostar.errors import RobostarError
@@ -17,8 +19,6 @@ from robostar.protocol.frame import ACK, RST, FrameDecoder, Packet, encode_packe
 from robostar.serve import LineConfig, LineServer, ServeConfig
 from robostar.sim.controller import VirtualController
 from robostar.sim.listeners import SimServer
-
-from tests.serve.line_fakes import FaultySim, n1_server
 
 _AA = encode_packet(ReadStatus().encode())
 
