@@ -27,6 +27,8 @@ __all__ = [
     "CorruptReason",
     "FrameDecoder",
     "FrameEvent",
+    "FramePart",
+    "FrameTracker",
     "Packet",
     "encode_packet",
     "lone_frame",
@@ -139,6 +141,105 @@ class CorruptPacket:
 
 
 FrameEvent = Packet | Control | CorruptPacket
+
+
+class FramePart(enum.Enum):
+    """What a byte of the line is to the framing (:meth:`FrameTracker.step`)."""
+
+    START = "start"
+    """An STX opening a packet (or restarting one that was cut short)."""
+    DATA = "data"
+    """Inside a packet, its ETX included."""
+    LRC = "lrc"
+    """The byte after ETX, whatever its value."""
+    OTHER = "other"
+    """A control byte or noise between packets."""
+
+
+class FrameTracker:
+    """Where a stream of bytes stands in the framing, and the LRC its packet's data call for,
+    without keeping the data: for those that pass bytes on rather than decode them (the
+    simulator's fault injection, the threaded host's record of a half-sent packet).
+
+    The rule is :class:`FrameDecoder`'s: STX (re)starts a packet; inside one every byte but ETX
+    counts in the XOR; after ETX the next byte is the LRC whatever it is; between packets
+    nothing but STX matters. (The decoder keeps the data too, and the 250-byte limit.)
+    """
+
+    __slots__ = ("in_lrc", "in_packet", "xor")
+
+    def __init__(self) -> None:
+        self.in_packet = False
+        self.in_lrc = False
+        self.xor = 0
+        """The XOR of the current packet's data so far."""
+
+    def step(self, byte: int) -> FramePart:
+        """Take one byte; say what it is."""
+        if self.in_lrc:
+            self.in_lrc = False
+            return FramePart.LRC
+        if byte == STX:
+            self.in_packet = True
+            self.xor = 0
+            return FramePart.START
+        if not self.in_packet:
+            return FramePart.OTHER
+        if byte == ETX:
+            self.in_packet = False
+            self.in_lrc = True
+        else:
+            self.xor ^= byte
+        return FramePart.DATA
+
+    def feed(self, data: bytes) -> None:
+        """Take a read whole: the same state as :meth:`step` over each byte, with the runs
+        between STX and ETX folded at once."""
+        i = 0
+        n = len(data)
+        while i < n:
+            if self.in_lrc:
+                self.in_lrc = False
+                i += 1
+            elif self.in_packet:
+                etx = data.find(b"\x03", i)
+                stx = data.find(b"\x02", i)
+                stop = n if etx < 0 else etx
+                if 0 <= stx < stop:
+                    stop = stx
+                self.xor ^= lrc(data[i:stop])
+                if stop == n:
+                    return
+                if stop == stx:
+                    self.xor = 0
+                else:
+                    self.in_packet = False
+                    self.in_lrc = True
+                i = stop + 1
+            else:
+                stx = data.find(b"\x02", i)
+                if stx < 0:
+                    return
+                self.in_packet = True
+                self.xor = 0
+                i = stx + 1
+
+    def closing_bytes(self) -> bytes:
+        """Bytes that end the packet begun as a corrupt one (empty between packets): ETX if it
+        is still open, and an LRC byte that is neither the right one nor the ETX a receiver
+        takes for a zero LRC."""
+        wrong = self.xor ^ 0xFF
+        if self.in_packet:
+            return bytes((ETX, wrong))
+        if self.in_lrc:
+            return bytes((wrong,))
+        return b""
+
+    def reset(self) -> None:
+        """Between packets again (the line was cleared)."""
+        self.in_packet = self.in_lrc = False
+        self.xor = 0
+
 
 _CONTROL_EVENTS = {kind.value: Control(kind) for kind in ControlKind}
 _BYTES_TYPES = (bytes, bytearray, memoryview)

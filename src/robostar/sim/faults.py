@@ -31,7 +31,7 @@ from collections import Counter, deque
 from dataclasses import dataclass
 
 from robostar.errors import UsageError
-from robostar.protocol.frame import ETX, NAK, RST, STX
+from robostar.protocol.frame import ETX, NAK, RST, FramePart, FrameTracker
 from robostar.transport.peer import BytePeer
 
 __all__ = [
@@ -299,45 +299,6 @@ class Injection:
     time: float
 
 
-class _Role(enum.Enum):
-    START = "start"  # an STX opening a packet
-    DATA = "data"  # inside a packet (the ETX included)
-    LRC = "lrc"  # the byte after ETX
-    OTHER = "other"  # a control byte or noise between packets
-
-
-class _Framing:
-    """Which part of a packet each byte of one direction is, and the LRC its data call for."""
-
-    __slots__ = ("in_lrc", "in_packet", "xor")
-
-    def __init__(self) -> None:
-        self.in_packet = False
-        self.in_lrc = False
-        self.xor = 0
-
-    def feed(self, byte: int) -> _Role:
-        if self.in_lrc:
-            self.in_lrc = False
-            return _Role.LRC
-        if byte == STX:
-            self.in_packet = True
-            self.xor = 0
-            return _Role.START
-        if not self.in_packet:
-            return _Role.OTHER
-        if byte == ETX:
-            self.in_packet = False
-            self.in_lrc = True
-        else:
-            self.xor ^= byte
-        return _Role.DATA
-
-    def reset(self) -> None:
-        self.in_packet = self.in_lrc = False
-        self.xor = 0
-
-
 class _Armed:
     """A scheduled fault waiting for (or running through) its byte positions."""
 
@@ -356,7 +317,7 @@ class _Lane:
         self.direction = direction
         self.rng = rng
         self.index = 0  # original bytes seen so far
-        self.framing = _Framing()
+        self.framing = FrameTracker()
         self.rates: list[FaultSpec] = []
         self.armed: list[_Armed] = []
         self.queue: deque[tuple[float, bytearray]] = deque()
@@ -366,12 +327,12 @@ class _Lane:
         self.current = bytearray()  # the packet passing now, as it came
         self.last_packet = b""  # the last whole packet that passed (for a repeat)
 
-    def track(self, byte: int, role: _Role) -> None:
-        if role is _Role.START:
+    def track(self, byte: int, role: FramePart) -> None:
+        if role is FramePart.START:
             self.current = bytearray((byte,))
-        elif role is _Role.DATA:
+        elif role is FramePart.DATA:
             self.current.append(byte)
-        elif role is _Role.LRC:
+        elif role is FramePart.LRC:
             self.current.append(byte)
             self.last_packet = bytes(self.current)
 
@@ -565,7 +526,7 @@ class FaultInjector:
         self.injected[kind, lane.direction] += 1
         self.log.append(Injection(kind, lane.direction, index, now))
 
-    def _firing(self, lane: _Lane, index: int, role: _Role) -> list[FaultSpec]:
+    def _firing(self, lane: _Lane, index: int, role: FramePart) -> list[FaultSpec]:
         """The faults that hit the byte at ``index`` (scheduled first, then rates rolled)."""
         hits: list[FaultSpec] = []
         for armed in list(lane.armed):
@@ -574,7 +535,7 @@ class FaultInjector:
             spec = armed.spec
             position = index - armed.base
             if spec.kind in _PACKET_KINDS:
-                wanted = _Role.LRC if spec.kind is FaultKind.CORRUPT_LRC else _Role.START
+                wanted = FramePart.LRC if spec.kind is FaultKind.CORRUPT_LRC else FramePart.START
                 if role is not wanted or position < spec.at_byte:
                     continue
             elif not spec.at_byte <= position < spec.at_byte + spec.count:
@@ -585,9 +546,9 @@ class FaultInjector:
                 lane.armed.remove(armed)
         for spec in lane.rates:
             if spec.kind is FaultKind.CORRUPT_LRC:
-                applies = role is _Role.LRC
+                applies = role is FramePart.LRC
             elif spec.kind in _PER_PACKET_RATE:
-                applies = role is _Role.START
+                applies = role is FramePart.START
             else:
                 applies = True
             if applies and spec.rate is not None and lane.rng.random() < spec.rate:
@@ -603,32 +564,32 @@ class FaultInjector:
         quiet = not (lane.rates or lane.armed or lane.swallowing or lane.cut)
         if quiet and (lane is host_lane or not host_lane.armed):
             for byte in data:
-                lane.track(byte, lane.framing.feed(byte))
+                lane.track(byte, lane.framing.step(byte))
             lane.index += len(data)
             lane.emit(data, now)
             return
         for byte in data:
             index = lane.index
             lane.index += 1
-            role = lane.framing.feed(byte)
+            role = lane.framing.step(byte)
             previous = lane.last_packet
             lane.track(byte, role)
-            if role is _Role.START and lane.direction is Direction.TO_CONTROLLER:
+            if role is FramePart.START and lane.direction is Direction.TO_CONTROLLER:
                 self._exchange_started(index)
             if lane.cut:
                 continue
             if lane.swallowing:
-                if role is _Role.LRC:
+                if role is FramePart.LRC:
                     lane.swallowing = False
                     host_lane.emit(bytes((NAK,)), now)
                     continue
-                if role is not _Role.START:
+                if role is not FramePart.START:
                     continue
                 lane.swallowing = False  # cut short by a new packet: judge that one afresh
             self._apply(lane, byte, index, role, now, previous)
 
     def _apply(
-        self, lane: _Lane, byte: int, index: int, role: _Role, now: float, previous: bytes = b""
+        self, lane: _Lane, byte: int, index: int, role: FramePart, now: float, previous: bytes = b""
     ) -> None:
         hits = self._firing(lane, index, role)
         if not hits:

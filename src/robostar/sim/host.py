@@ -30,7 +30,7 @@ from typing import Protocol, Self, runtime_checkable
 from robostar.controller_role.limits import MAX_CLIENTS, MAX_PENDING, MAX_PENDING_PTY
 from robostar.errors import PortError, UsageError
 from robostar.listen import check_host, check_port, tcp_url
-from robostar.protocol.frame import ETX, NAK, RST, lrc
+from robostar.protocol.frame import NAK, RST, FrameTracker
 from robostar.transport.peer import BytePeer
 
 __all__ = ["PeerHost", "SessionSource"]
@@ -120,67 +120,13 @@ def _disconnect_takers(peer: object) -> tuple[Callable[[], bool], ...]:
     return tuple(takers)
 
 
-class _PacketTail:
-    """Where the bytes fed to the peer stand in a packet, to finish a half-sent one.
+_PacketTail = FrameTracker
+"""Where the bytes fed to the peer stand in a packet, to finish a half-sent one.
 
-    A client that disconnects in the middle of a packet would leave the controller's decoder
-    inside it, and the next client's request would reach it as a damaged packet. The host then
-    closes the fragment as a corrupt packet (ETX and a wrong LRC) and hides the controller's
-    NAK, so the next client starts on a clean line.
-    """
-
-    __slots__ = ("in_lrc", "in_packet", "xor")
-
-    def __init__(self) -> None:
-        self.in_packet = False
-        self.in_lrc = False
-        self.xor = 0
-
-    def feed(self, data: bytes) -> None:
-        # Byte by byte: after ETX the next byte is the LRC, whatever it is; STX (re)starts a
-        # packet; inside one, every other byte counts in the XOR; between packets, nothing
-        # but STX matters. Runs between those bytes are taken whole.
-        i = 0
-        n = len(data)
-        while i < n:
-            if self.in_lrc:
-                self.in_lrc = False
-                i += 1
-            elif self.in_packet:
-                etx = data.find(b"\x03", i)
-                stx = data.find(b"\x02", i)
-                stop = n if etx < 0 else etx
-                if 0 <= stx < stop:
-                    stop = stx
-                self.xor ^= lrc(data[i:stop])
-                if stop == n:
-                    return
-                if stop == stx:
-                    self.xor = 0
-                else:
-                    self.in_packet = False
-                    self.in_lrc = True
-                i = stop + 1
-            else:
-                stx = data.find(b"\x02", i)
-                if stx < 0:
-                    return
-                self.in_packet = True
-                self.xor = 0
-                i = stx + 1
-
-    def closing_bytes(self) -> bytes:
-        """Bytes that end the current fragment as a corrupt packet (empty between packets)."""
-        wrong = self.xor ^ 0xFF  # never the LRC, nor the ETX taken for a zero LRC
-        if self.in_packet:
-            return bytes((ETX, wrong))
-        if self.in_lrc:
-            return bytes((wrong,))
-        return b""
-
-    def reset(self) -> None:
-        self.in_packet = self.in_lrc = False
-        self.xor = 0
+A client that disconnects in the middle of a packet would leave the controller's decoder inside
+it, and the next client's request would reach it as a damaged packet. The host then closes the
+fragment as a corrupt packet (:meth:`FrameTracker.closing_bytes`: ETX and a wrong LRC) and hides
+the controller's NAK, so the next client starts on a clean line."""
 
 
 class _Stream:
