@@ -356,7 +356,8 @@ class AsyncHost:
 
 
 def _common_name(transport: asyncio.BaseTransport) -> str | None:
-    """The common name of a TLS peer's certificate (mutual TLS), else None."""
+    """The name a mutual-TLS peer's certificate gives: its common name, else its first e-mail
+    or DNS name; None without a certificate."""
     cert = transport.get_extra_info("peercert")
     if not isinstance(cert, dict):
         return None
@@ -364,4 +365,7 @@ def _common_name(transport: asyncio.BaseTransport) -> str | None:
         for key, value in rdn:
             if key == "commonName":
                 return str(value)
+    for kind, value in cert.get("subjectAltName", ()):
+        if kind in ("email", "DNS"):
+            return str(value)
     return None
