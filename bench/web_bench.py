@@ -100,7 +100,13 @@ def _inches(page: Any, controller: Any, sim: Any, runs: int = 10) -> dict[str, A
     }
 
 
+def _partial(results: dict[str, Any]) -> None:
+    """The figures so far, on stderr: a run cut short still leaves them."""
+    print(json.dumps(results), file=sys.stderr, flush=True)
+
+
 def main(rounds: int = 60, pages: int = 50) -> dict[str, Any]:
+    from playwright.sync_api import Error as PlaywrightError
     from playwright.sync_api import sync_playwright
 
     from robostar.serve.config import LineConfig, ServeConfig
@@ -172,17 +178,27 @@ def main(rounds: int = 60, pages: int = 50) -> dict[str, Any]:
                 "p99": 1000 * _percentile(latencies, 0.99),
                 "poll_interval_ms": 50,
             }
+            _partial(results)
 
             # one context each: 50 browsers, as 50 devices (one browser keeps six connections
             # to a server at most, and each page holds one for its event stream)
             contexts = [browser.new_context(base_url=face.url) for _ in range(pages)]
-            tabs = [context.new_page() for context in contexts]
-            for number, tab in enumerate(tabs, 1):
-                print(f"page {number} of {pages}", file=sys.stderr, flush=True)
-                tab.goto("/line/cell1")
-                tab.wait_for_function(
-                    "() => window.robostarStream && window.robostarStream.readyState === 1"
-                )
+            opened = [context.new_page() for context in contexts]
+            tabs, opening, failed = [], [], []
+            for number, tab in enumerate(opened, 1):
+                began = time.perf_counter()
+                try:  # a page that does not open on a loaded machine is counted, not fatal
+                    tab.goto("/line/cell1", timeout=60_000)
+                    tab.wait_for_function(
+                        "() => window.robostarStream && window.robostarStream.readyState === 1",
+                        timeout=60_000,
+                    )
+                except PlaywrightError as exc:
+                    failed.append(f"page {number}: {str(exc).splitlines()[0]}")
+                    continue
+                opening.append(time.perf_counter() - began)
+                tabs.append(tab)
+                print(f"page {number} of {pages}: {opening[-1]:.2f} s", file=sys.stderr, flush=True)
             set_input(False)
             time.sleep(0.5)
             start_at = time.perf_counter()
@@ -193,9 +209,14 @@ def main(rounds: int = 60, pages: int = 50) -> dict[str, Any]:
                 shown.append(time.perf_counter() - start_at)
             results["streams"] = {
                 "pages": pages,
+                "pages_opened": len(tabs),
+                "pages_not_opened": failed,
+                "open_seconds_p50": statistics.median(opening) if opening else None,
+                "open_seconds_max": max(opening) if opening else None,
                 "pages_showing_the_change": len(shown),
-                "seconds_until_the_last_page_shows_it": max(shown),
+                "seconds_until_the_last_page_shows_it": max(shown) if shown else None,
             }
+            _partial(results)
             for context in contexts:
                 context.close()
 

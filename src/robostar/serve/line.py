@@ -220,6 +220,7 @@ class Line:
         who: Who,
         implicit_lease: bool = False,
         lease: LeaseMode | None = None,
+        face_audits: bool = False,
     ) -> R:
         """Run ``command`` for ``who`` through the queue (state changes need the lease).
 
@@ -227,7 +228,11 @@ class Line:
         ``implicit_lease=True``, the faces' one-shot commands) for this command only, given
         back as it ends (a jog start keeps it until the jog stops); ``lease="hold"`` to keep it
         past the command (an N1 host program's sequence). Without either, a free lease is
-        refused (LeaseHeldError: take it first), as is one another holds."""
+        refused (LeaseHeldError: take it first), as is one another holds.
+
+        ``face_audits``: the face records this command's success in an entry of its own (a web
+        jog's start and stop as one summary); the line still records a refusal, an error or an
+        unknown outcome, so nothing that may have reached the wire goes unrecorded."""
         if not command.CHANGES_STATE:
             return await self.read(command, who=who)
         if lease is None and implicit_lease:
@@ -243,7 +248,7 @@ class Line:
                 self.record(command, who, f"refused: {exc}")
                 raise
         try:
-            return await self._carry_out(command, who, is_stop)
+            return await self._carry_out(command, who, is_stop, face_audits)
         finally:
             if once:
                 self.gate.ended(who, jogging=self._jogging)
@@ -277,7 +282,9 @@ class Line:
     def _jogging(self, who: Who) -> bool:
         return who in self.jogs.jogs.values()
 
-    async def _carry_out(self, command: Command[R], who: Who, is_stop: bool) -> R:
+    async def _carry_out(
+        self, command: Command[R], who: Who, is_stop: bool, face_audits: bool = False
+    ) -> R:
         """:meth:`execute`'s part past the lease: queue, wait, audit, follow jogs."""
         priority = PRI_STOP if is_stop else PRI_WRITE
         if isinstance(command, JogContinue):
@@ -304,7 +311,8 @@ class Line:
             self.record(command, who, f"error: {type(exc).__name__}: {exc}")
             self.jogs.failed(command, who, exc)
             raise
-        self.record(command, who, "ok")
+        if not face_audits:
+            self.record(command, who, "ok")
         self.jogs.carried_out(command, who)
         return result
 

@@ -42,6 +42,7 @@ from robostar.controller_role.session import Backend, ControllerSession, Refusal
 from robostar.errors import UsageError
 from robostar.listen import check_host, check_port
 from robostar.protocol.fields import FLAG_FAILED
+from robostar.serve.faces.n1.peer_owner import describe_peer
 from robostar.transport.peer import BytePeer
 
 __all__ = ["AsyncHost", "parse_networks"]
@@ -139,6 +140,9 @@ class _Connection(asyncio.Protocol):
             self._socket_options(transport)
             self._idle_timer = self.loop.call_later(TURN_AWAY_IDLE, self._check_idle)
             return
+        # who is at the other end, for the log and the audit: the certificate's name, or the
+        # local user and process of a peer on this machine (N1 itself carries no user name)
+        self.name = describe_peer(address, common_name=_common_name(transport))
         try:
             self.peer = owner.factory(self.name)
         except Exception:
@@ -349,3 +353,19 @@ class AsyncHost:
 
     async def __aexit__(self, *exc: object) -> None:
         await self.close()
+
+
+def _common_name(transport: asyncio.BaseTransport) -> str | None:
+    """The name a mutual-TLS peer's certificate gives: its common name, else its first e-mail
+    or DNS name; None without a certificate."""
+    cert = transport.get_extra_info("peercert")
+    if not isinstance(cert, dict):
+        return None
+    for rdn in cert.get("subject", ()):
+        for key, value in rdn:
+            if key == "commonName":
+                return str(value)
+    for kind, value in cert.get("subjectAltName", ()):
+        if kind in ("email", "DNS"):
+            return str(value)
+    return None

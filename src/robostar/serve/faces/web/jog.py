@@ -64,6 +64,8 @@ class JogPanel:
         self._socket: _Socket | None = None
         self._jog: tuple[JogStart, tuple[float, ...] | None, float] | None = None
         """The jog running: its command, the joint angles and the time it started."""
+        self._started_wall = 0.0
+        """When the jog running started (``time.time()``), for its audit entry."""
 
     async def run(self, socket: _Socket) -> None:
         """Serve the page's messages until the socket closes."""
@@ -102,10 +104,12 @@ class JogPanel:
             await self._tell({"type": "error", "error": f"bad jog request: {exc}"})
             return
         try:
-            await self.line.execute(command, who=self.who, implicit_lease=True)
+            # audited here as one entry when it stops (the line records a failure itself)
+            await self.line.execute(command, who=self.who, implicit_lease=True, face_audits=True)
         except RobostarError as exc:
             await self._tell({"type": "error", "error": str(exc)})
             return
+        self._started_wall = time.time()
         self.channel = channel
         self._last_heard = self._last_bf = time.monotonic()
         self._jog = (command, self._angles(channel), self._last_heard)
@@ -205,19 +209,22 @@ class JogPanel:
                 await watchdog
         if channel is None:
             return
+        outcome = f"stopped: {reason}"
         try:
-            await self.line.execute(JogStop(channel), who=self.who)
-        except RobostarError as exc:
+            await self.line.execute(JogStop(channel), who=self.who, face_audits=True)
+        except RobostarError as exc:  # the line has recorded the failed BG too
             log.warning("jog on %s: BG failed: %s", self.line.name, exc)
+            outcome = f"stop failed ({reason}): {exc}"
         await self._tell({"type": "stopped", "channel": channel, "reason": reason})
-        await self._summarize(channel, reason)
+        await self._summarize(channel, outcome)
 
     def _angles(self, channel: int) -> tuple[float, ...] | None:
         sample = self.line.model.get(f"ch{channel}/angles")
         return None if sample is None else tuple(sample.value.axes)
 
-    async def _summarize(self, channel: int, reason: str) -> None:
-        """One audit entry for the whole jog: which axis, how far, how long, why it stopped."""
+    async def _summarize(self, channel: int, outcome: str) -> None:
+        """The jog's one audit entry (its JogStart and JogStop that went through are not
+        recorded apart): which axis, when it started, how long, how far, why it stopped."""
         if self._jog is None:
             return
         command, before, started = self._jog
@@ -228,7 +235,7 @@ class JogPanel:
         sign = "+" if command.direction == JogDirection.PLUS else "-"
         what = (
             f"jog channel {channel} axis {command.axis} {sign} ({command.motion.name.lower()}):"
-            f" {time.monotonic() - started:.1f} s"
+            f" started {_clock(self._started_wall)}, {time.monotonic() - started:.1f} s"
         )
         if before is not None and after is not None and len(before) >= command.axis:
             moved = after[command.axis - 1] - before[command.axis - 1]
@@ -236,13 +243,18 @@ class JogPanel:
                 f", axis {command.axis} moved {moved:+.3f} (from {before[command.axis - 1]:.3f}"
                 f" to {after[command.axis - 1]:.3f}, degrees or mm)"
             )
-        self.line.record(what, self.who, f"stopped: {reason}")
+        self.line.record(what, self.who, outcome)
 
     async def _tell(self, message: dict[str, Any]) -> None:
         if self._socket is None:
             return
         with contextlib.suppress(Exception):  # the page may be gone; the jog is stopped anyway
             await self._socket.send_text(json.dumps(message))
+
+
+def _clock(when: float) -> str:
+    """A wall-clock instant to the millisecond, as the audit entry shows a jog's start."""
+    return time.strftime("%H:%M:%S", time.gmtime(when)) + f".{int(when % 1 * 1000):03d} UTC"
 
 
 def _parse(text: str) -> dict[str, Any]:

@@ -149,5 +149,14 @@ def health_row(line: Line) -> dict[str, Any]:
         "errors": health.errors,
         "reconnects": health.reconnects,
         "last poll": "—" if age is None else f"{age:.1f} s ago",
-        "lease": str(line.lease.holder.who) if line.lease.holder else "free",
+        "lease": _lease_words(line),
     }
+
+
+def _lease_words(line: Line) -> str:
+    """Who holds ``line``'s control, for the health table (a one-shot lease said as such)."""
+    state = line.control()
+    if state.free:
+        return "free"
+    held = f"{state.holder} ({state.face})"
+    return f"{held}, for one command" if state.once else held

@@ -1,5 +1,5 @@
 """The controller page of one line: lamps, positions, I/O, alarms, and the operator's actions
-(servo, job start and stop, speed, outputs, alarm reset, emergency stop) and the lease release."""
+(servo, job start and stop, speed, outputs, alarm reset, emergency stop)."""
 
 from __future__ import annotations
 
@@ -25,7 +25,6 @@ from robostar.serve.faces.web.forms import file_name, int_field, json_body
 from robostar.serve.faces.web.views import card, channels, detail
 from robostar.serve.faces.web.workspace import Cache, read_workspace
 from robostar.serve.jsonable import jsonable
-from robostar.serve.lease import Who
 from robostar.serve.line import Line
 from robostar.serve.users import Role
 from robostar.types import CoordSystem, JobMode, PointFile
@@ -204,21 +203,8 @@ async def jobs(request: Request) -> Response:
     return JSONResponse({"channel": channel, "jobs": sorted(found, key=lambda j: j["number"])})
 
 
-async def release(request: Request) -> Response:
-    """Give the controller's lease back (only its holder can)."""
-    deps = deps_of(request)
-    line = deps.line_of(request)
-    account = await deps.guard(request, Role.OPERATOR, line, "lease release")
-    who = Who(account.name, "web")
-    released = line.lease.release(who)
-    # a change of who has control is part of the record, as the writes made under it are
-    line.record("lease release", who, "ok" if released else "not held: nothing released")
-    return JSONResponse({"ok": True, "released": released})
-
-
 ROUTES: list[BaseRoute] = [
     Route("/line/{line}", controller),
     Route("/line/{line}/action", action, methods=["POST"]),
     Route("/line/{line}/jobs/{channel:int}", jobs),
-    Route("/line/{line}/release", release, methods=["POST"]),
 ]

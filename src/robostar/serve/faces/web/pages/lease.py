@@ -1,21 +1,21 @@
 """Who has control: every page shows each line's lease (who holds it, until when), an operator
-takes a free one for a sequence of commands, and its holder gives it back. A one-shot command
-from the dashboard takes a free lease for itself (the line's implicit lease); holding control
-across several is this explicit take."""
+takes a free one for a sequence of commands, and its holder gives it back. A click takes a free
+lease for its one command and the line gives it back as the command ends (a one-shot lease,
+shown while it lasts); holding control across several commands is this explicit take. Both go
+through the line's own calls (``Line.control``, ``take_control``, ``release_control``), which
+write the one audit entry of each."""
 
 from __future__ import annotations
 
-import time
 from typing import Any
 
 from starlette.requests import Request
 from starlette.responses import JSONResponse, Response
 from starlette.routing import BaseRoute, Route
 
-from robostar.errors import RobostarError
 from robostar.serve.faces.web.auth import Account
 from robostar.serve.faces.web.deps import Forbidden, deps_of
-from robostar.serve.lease import Who
+from robostar.serve.lease import LeaseHeldError, Who
 from robostar.serve.line import Line
 from robostar.serve.users import Role
 
@@ -27,16 +27,18 @@ TAKE_SECONDS = 300.0
 
 def lease_row(line: Line, account: Account) -> dict[str, Any]:
     """A line's lease as the page shows it, and what ``account`` may do with it."""
-    holder = line.lease.holder
-    mine = holder is not None and holder.who == Who(account.name, "web") and account.user
+    state = line.control()
+    holder = None if state.free else f"{state.holder} ({state.face})"
+    mine = holder is not None and holder == str(Who(account.name, "web")) and account.user
     return {
         "line": line.name,
-        "free": holder is None,
-        "holder": None if holder is None else str(holder.who),
-        "until": None if holder is None else holder.expires_at,
-        "left": None if holder is None else max(0, round(holder.expires_at - time.time())),
-        "mine": bool(mine),
-        "may_take": holder is None and account.may(Role.OPERATOR),
+        "free": state.free,
+        "holder": holder,
+        "until": state.until,
+        "left": None if state.left is None else max(0, round(state.left)),
+        "once": state.once,
+        "mine": bool(mine) and not state.once,
+        "may_take": state.free and account.may(Role.OPERATOR),
     }
 
 
@@ -52,21 +54,25 @@ async def take(request: Request) -> Response:
     deps = deps_of(request)
     line = deps.line_of(request)
     account = await deps.guard(request, Role.OPERATOR, line, "lease take")
-    who = Who(account.name, "web")
-    holder = line.lease.holder
-    if holder is not None and holder.who != who:
-        line.record("lease take", who, f"refused: held by {holder.who}")
-        raise Forbidden(409, f"line {line.name}: control is held by {holder.who}")
     try:
-        line.lease.acquire(who, TAKE_SECONDS)
-    except RobostarError as exc:
-        line.record("lease take", who, f"refused: {exc}")
-        raise
-    line.record(f"lease take for {TAKE_SECONDS:.0f} s", who, "ok")
+        line.take_control(Who(account.name, "web"), TAKE_SECONDS)  # audited by the line
+    except LeaseHeldError as exc:
+        raise Forbidden(409, str(exc)) from exc
     return JSONResponse({"ok": True, "lease": lease_row(line, account)})
+
+
+async def release(request: Request) -> Response:
+    """Give the line's lease back (only its holder can); audited by the line."""
+    deps = deps_of(request)
+    line = deps.line_of(request)
+    account = await deps.guard(request, Role.OPERATOR, line, "lease release")
+    released = line.release_control(Who(account.name, "web"))
+    return JSONResponse({"ok": True, "released": released})
 
 
 ROUTES: list[BaseRoute] = [
     Route("/leases", leases),
     Route("/line/{line}/lease/take", take, methods=["POST"]),
+    Route("/line/{line}/lease/release", release, methods=["POST"]),
+    Route("/line/{line}/release", release, methods=["POST"]),  # the older address
 ]

@@ -274,16 +274,23 @@ function showLeases(leases) {
   for (const l of leases) {
     const el = document.querySelector(`[data-lease="${CSS.escape(l.line)}"]`);
     if (!el) continue;
-    el.querySelector(".lease-state").textContent = l.free
-      ? "control free" : `control held by ${l.holder}, ${l.left} s left unless renewed`;
+    el.querySelector(".lease-state").textContent = leaseText(l);
     el.querySelector(".lease-take").hidden = !l.may_take;
     el.querySelector(".lease-release").hidden = !l.mine;
   }
 }
 
+// the words of templates/base.html: a one-shot lease lasts one command (a click, an MQTT
+// command) and is given back as it ends; a held one runs until released or unused that long
+function leaseText(l) {
+  if (l.free) return "control free";
+  if (l.once) return `in use by ${l.holder} for one command`;
+  return `control held by ${l.holder}, ${l.left} s left unless renewed`;
+}
+
 async function leaseAction(button, what) {
   const line = button.dataset.line;
-  const path = what === "take" ? `/line/${encodeURIComponent(line)}/lease/take` : `/line/${encodeURIComponent(line)}/release`;
+  const path = what === "take" ? `/line/${encodeURIComponent(line)}/lease/take` : `/line/${encodeURIComponent(line)}/lease/release`;
   const response = await fetch(path, { method: "POST", headers: { "x-csrf-token": csrf() } });
   const answer = await response.json().catch(() => ({ error: response.statusText }));
   if (!response.ok) toast(`${line}: ${answer.error}`, true);
