@@ -131,8 +131,9 @@ class OpcUaFace:
         self.load.seconds = time.perf_counter() - space_started
         self._setpoints = SetpointAttributeService(iserver.aspace)
         iserver.attribute_service = self._setpoints  # clients' writes go to the setpoints
-        server.subscribe_server_callback(CallbackType.PreRead, self.reads.before_read)
-        server.subscribe_server_callback(CallbackType.PreRead, self._control_before_read)
+        # one PreRead listener: asyncua keeps one per callback type and priority, so a second
+        # subscription replaced the first (maxAge reads stopped reaching the line)
+        server.subscribe_server_callback(CallbackType.PreRead, self._before_read)
         server.set_endpoint(s.endpoint)
         server.set_server_name("robostar serve")
         server.product_uri = "urn:robostar"
@@ -318,6 +319,12 @@ class OpcUaFace:
                     await self.publishers[line.name].apply_all(line.model.snapshot().items())
                 except Exception:  # one bad value must not stop the line's updates
                     log.exception("opcua %s: cannot show %s", line.name, change.key)
+
+    async def _before_read(self, event: Any, dispatcher: Any = None) -> None:
+        """asyncua's PreRead: the variables read brought up to the client's maxAge, and the
+        Control variables to the lease as it is."""
+        await self.reads.before_read(event, dispatcher)
+        await self._control_before_read(event, dispatcher)
 
     async def _control_before_read(self, event: Any, dispatcher: Any = None) -> None:
         """A client's Read of a Control variable sees the lease as it is at that read."""
