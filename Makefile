@@ -15,8 +15,9 @@ $(STAMP): pyproject.toml
 demo: $(STAMP)
 	$(BIN)/robostar --port sim:// demo
 
+# Two workers (pytest-xdist): CI has two cores; the suite takes ~7 min so, ~11 min in one.
 test: $(STAMP)
-	$(BIN)/python -m pytest
+	$(BIN)/python -m pytest -n 2
 
 # The clients' methods are written from the plans in client/surface.py (a test fails when stale).
 generate: $(STAMP)
