@@ -133,3 +133,15 @@ def chromium() -> Iterator[Any]:
             yield launched
         finally:
             launched.close()
+
+
+@pytest.fixture
+def page(chromium: Any, stack: Stack) -> Iterator[Any]:
+    """A browser tab of its own on the stack's dashboard (a fresh context: no cookies)."""
+    context = chromium.new_context(base_url=stack.url)
+    tab = context.new_page()
+    tab.set_default_timeout(10_000)
+    try:
+        yield tab
+    finally:
+        context.close()

@@ -4,31 +4,10 @@ from __future__ import annotations
 
 import socket
 import time
-from collections.abc import Iterator
 from typing import Any
 from urllib.parse import urlsplit
 
-import pytest
-from web_harness import PASSWORDS, Stack
-
-
-@pytest.fixture
-def page(chromium: Any, stack: Stack) -> Iterator[Any]:
-    context = chromium.new_context(base_url=stack.url)
-    tab = context.new_page()
-    tab.set_default_timeout(10_000)
-    try:
-        yield tab
-    finally:
-        context.close()
-
-
-def sign_in(page: Any, user: str) -> None:
-    page.goto("/login")
-    page.fill("input[name=username]", user)
-    page.fill("input[name=password]", PASSWORDS[user])
-    page.click("form.login button[type=submit]")
-    page.wait_for_url("**/")
+from web_harness import Stack, sign_in
 
 
 def expect(page: Any) -> Any:

@@ -10,22 +10,11 @@ from collections.abc import Iterator
 from typing import Any
 
 import pytest
-from web_harness import PASSWORDS, Stack
+from web_harness import Stack, sign_in
 
 from robostar.client.sync import Client
 from robostar.commands.files import DownloadFile
 from robostar.types import CoordSystem, PointFile
-
-
-@pytest.fixture
-def page(chromium: Any, stack: Stack) -> Iterator[Any]:
-    context = chromium.new_context(base_url=stack.url)
-    tab = context.new_page()
-    tab.set_default_timeout(10_000)
-    try:
-        yield tab
-    finally:
-        context.close()
 
 
 @pytest.fixture
@@ -38,14 +27,6 @@ def servo_on(stack: Stack) -> Iterator[None]:
     yield
     stack.in_sim(lambda c: setattr(c.model.channels[0], "servo", False))
     stack.in_sim(lambda c: setattr(c.model.channels[0], "origin", origin))
-
-
-def sign_in(page: Any, user: str) -> None:
-    page.goto("/login")
-    page.fill("input[name=username]", user)
-    page.fill("input[name=password]", PASSWORDS[user])
-    page.click("form.login button[type=submit]")
-    page.wait_for_url("**/")
 
 
 def expect() -> Any:

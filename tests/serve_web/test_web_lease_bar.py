@@ -6,11 +6,9 @@ from __future__ import annotations
 
 import json
 import re
-from collections.abc import Iterator
 from typing import Any
 
 import httpx
-import pytest
 from web_harness import PASSWORDS, Stack, login
 
 
@@ -59,17 +57,6 @@ def test_take_and_release_by_role(stack: Stack) -> None:
         assert lease_of(erin.get("/").text) == "control free"
     entries = [json.loads(t) for t in stack.audit_path.read_text().splitlines()]
     assert any(e["what"].startswith("lease take") and e["who"] == "olga" for e in entries)
-
-
-@pytest.fixture
-def page(chromium: Any, stack: Stack) -> Iterator[Any]:
-    context = chromium.new_context(base_url=stack.url)
-    tab = context.new_page()
-    tab.set_default_timeout(10_000)
-    try:
-        yield tab
-    finally:
-        context.close()
 
 
 def test_take_and_release_in_the_browser(page: Any, stack: Stack) -> None:

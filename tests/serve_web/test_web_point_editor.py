@@ -4,11 +4,9 @@ as JSON to any other client."""
 
 from __future__ import annotations
 
-from collections.abc import Iterator
 from typing import Any
 
 import httpx
-import pytest
 from web_harness import PASSWORDS, Stack, login
 
 from robostar.commands.files import DownloadFile
@@ -50,17 +48,6 @@ def test_a_refusal_is_shown_on_the_page_in_words(stack: Stack) -> None:
         as_json = http.post(path, data=data)  # a script gets JSON, as before
         assert as_json.status_code == 400 and "axis 2" in as_json.json()["error"]
     assert demo_points(stack) == before
-
-
-@pytest.fixture
-def page(chromium: Any, stack: Stack) -> Iterator[Any]:
-    context = chromium.new_context(base_url=stack.url)
-    tab = context.new_page()
-    tab.set_default_timeout(10_000)
-    try:
-        yield tab
-    finally:
-        context.close()
 
 
 def test_choosing_a_point_fills_the_fields_in_the_browser(page: Any, stack: Stack) -> None:

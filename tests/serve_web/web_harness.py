@@ -69,6 +69,15 @@ class Stack:
         return result
 
 
+def sign_in(page: Any, user: str) -> None:
+    """Sign ``user`` in through the dashboard's login form in a browser page."""
+    page.goto("/login")
+    page.fill("input[name=username]", user)
+    page.fill("input[name=password]", PASSWORDS[user])
+    page.click("form.login button[type=submit]")
+    page.wait_for_url("**/")
+
+
 def login(client: httpx.Client, user: str) -> str:
     """Sign ``user`` in; returns the session's CSRF token."""
     page = client.get("/login")
