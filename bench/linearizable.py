@@ -11,13 +11,19 @@
    each in a process of their own. Reported: the hosts' AA latency p50/p99 in
    AA exchange times (one AA straight to the same paced simulator, p50), the write's latency,
    and the coalescing factor: AAs on the wire (counted with ``Line.on_exchange``) per AA the
-   hosts asked for.
+   hosts asked for. Also in exchanges: how many other exchanges ended while a write waited (the
+   one on the wire when it came: 1), and while a read waited (that one, writes ahead, its
+   flight); and what the push faces see meanwhile: the model's positions refreshed per second,
+   their mean age, and the stale fraction (of samples taken every 20 ms, those not good).
+   At 9600 baud, also with the line's ``poll_share`` at 0.5, 0.25 and 0.1 (the default: 1).
 """
 
 from __future__ import annotations
 
 import asyncio
+import bisect
 import contextlib
+import dataclasses
 import multiprocessing
 import subprocess
 import sys
@@ -29,8 +35,9 @@ from typing import Any
 from bench.measure import percentile
 from robostar import AsyncClient
 from robostar.commands.base import Command
-from robostar.commands.status import ReadStatus
+from robostar.commands.status import ReadPosition, ReadStatus
 from robostar.serve import LineConfig, LineServer, ServeConfig
+from robostar.serve.model import Quality
 
 SAMPLES = 300
 HOSTS = 16
@@ -115,16 +122,20 @@ async def _aa_exchange_time(url: str) -> float:
         return percentile(await _timed(client.status, 50), 50)
 
 
-def _hosts(url: str, seconds: float) -> tuple[list[float], list[float], int]:
+Timed = list[tuple[float, float]]
+"""(``time.time()`` at the call, latency in seconds) per operation."""
+
+
+def _hosts(url: str, seconds: float) -> tuple[Timed, Timed, int]:
     """In a process of its own (the hosts are other programs, on other machines): HOSTS hosts
     polling AA at HOST_HZ and one writing CB every WRITE_EVERY, for ``seconds``; the reads'
     and the writes' latencies and the count of failed reads."""
     return asyncio.run(_host_load(url, seconds))
 
 
-async def _host_load(url: str, seconds: float) -> tuple[list[float], list[float], int]:
-    reads: list[float] = []
-    writes: list[float] = []
+async def _host_load(url: str, seconds: float) -> tuple[Timed, Timed, int]:
+    reads: Timed = []
+    writes: Timed = []
     errors = [0]
     end = time.monotonic() + seconds
 
@@ -132,10 +143,10 @@ async def _host_load(url: str, seconds: float) -> tuple[list[float], list[float]
         async with AsyncClient(url, timeout=10.0) as client:
             next_at = time.monotonic()
             while time.monotonic() < end:
-                t = time.perf_counter()
+                at, t = time.time(), time.perf_counter()
                 try:
                     await client.status()
-                    reads.append(time.perf_counter() - t)
+                    reads.append((at, time.perf_counter() - t))
                 except Exception:
                     errors[0] += 1
                 next_at += 1 / HOST_HZ
@@ -146,47 +157,87 @@ async def _host_load(url: str, seconds: float) -> tuple[list[float], list[float]
             speed = 100
             while time.monotonic() < end:
                 speed = 100 if speed == 200 else 200
-                t = time.perf_counter()
+                at, t = time.time(), time.perf_counter()
                 await client.set_speed(1, speed)
-                writes.append(time.perf_counter() - t)
+                writes.append((at, time.perf_counter() - t))
                 await asyncio.sleep(WRITE_EVERY)
 
     await asyncio.gather(*(poller() for _ in range(HOSTS)), writer())
     return reads, writes, errors[0]
 
 
-async def many_hosts(baud: int, seconds: float) -> None:
+def _ended_during(ends: list[float], timed: Timed) -> list[int]:
+    """Per operation: the exchanges that ended on the line while it waited (its own included)."""
+    left, right = bisect.bisect_left, bisect.bisect_left
+    return [right(ends, at + took) - left(ends, at) for at, took in timed]
+
+
+async def _watch_model(line: Any, samples: list[tuple[bool, float]]) -> None:
+    """Every 20 ms, channel 1's position as the push faces see it: (good?, age in seconds)."""
+    while True:
+        await asyncio.sleep(0.02)
+        sample = line.model.get("ch1/position")
+        if sample is not None:
+            samples.append((sample.quality is Quality.GOOD, time.time() - sample.at))
+
+
+async def many_hosts(baud: int, seconds: float, poll_share: float | None = None) -> None:
     with _simulator(baud) as sim_url:
         unit = await _aa_exchange_time(sim_url)
-        async with LineServer(_server_config(sim_url)) as server:
+        config = _server_config(sim_url)
+        if poll_share is not None:
+            config = dataclasses.replace(
+                config, lines=(dataclasses.replace(config.lines[0], poll_share=poll_share),)
+            )
+        async with LineServer(config) as server:
             line = server.lines["cell"]
             await line.wait_polled(timeout=30)
             wire_aas = [0]
+            positions = [0]
+            ends: list[float] = []
 
             def count(command: Command[Any], outcome: Any, who: object) -> None:
+                ends.append(time.time())
                 if isinstance(command, ReadStatus):
                     wire_aas[0] += 1
+                elif isinstance(command, ReadPosition) and command.channel == 1:
+                    positions[0] += 1
 
             line.on_exchange(count)
             host, port = server.faces["n1"].addresses["cell"]  # type: ignore[attr-defined]
             polls_before = line.model.updates
+            seen: list[tuple[bool, float]] = []
+            watcher = asyncio.create_task(_watch_model(line, seen))
             with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn")) as pool:
                 hosts = asyncio.get_running_loop().run_in_executor(
                     pool, _hosts, f"tcp://{host}:{port}", seconds
                 )
-                reads, writes, errors = await hosts
+                timed_reads, timed_writes, errors = await hosts
+            watcher.cancel()
             wire = wire_aas[0]
             updates = line.model.updates - polls_before
+            kind = line.config.poll_share
+    reads = [took for _, took in timed_reads]
+    writes = [took for _, took in timed_writes]
     asked = len(reads) + errors
     read50, read99 = percentile(reads, 50) / unit, percentile(reads, 99) / unit
     write50, write99 = percentile(writes, 50) / unit, percentile(writes, 99) / unit
+    read_waits = _ended_during(ends, timed_reads)
+    write_waits = _ended_during(ends, timed_writes)
+    stale = sum(1 for good, _ in seen if not good) / max(1, len(seen))
+    mean_age = sum(age for _, age in seen) / max(1, len(seen))
     print(
-        f"  {baud:>6} baud: AA exchange {unit * 1e3:6.2f} ms;"
+        f"  {baud:>6} baud, poll_share {kind:g}: AA exchange {unit * 1e3:6.2f} ms;"
         f" hosts' AA p50 {read50:5.2f}, p99 {read99:5.2f} AA times ({_ms(reads, 99):.1f} ms);"
         f" write p50 {write50:5.2f}, p99 {write99:5.2f} AA times;"
         f" {asked / seconds:.0f} host AAs/s, {wire / seconds:.0f} wire AAs/s,"
         f" coalescing factor {wire / max(1, asked):.3f} wire AA per host AA;"
-        f" model {updates / seconds:.0f} values/s; errors {errors}"
+        f" model {updates / seconds:.0f} values/s; errors {errors}\n"
+        f"      exchanges ended while waiting (own included): read p99"
+        f" {percentile(read_waits, 99):.0f} max {max(read_waits, default=0)},"
+        f" write p99 {percentile(write_waits, 99):.0f} max {max(write_waits, default=0)};"
+        f" ch1 positions (XY + angles) {positions[0] / seconds:.1f}/s, mean age"
+        f" {mean_age * 1e3:.0f} ms, stale fraction {stale:.3f}"
     )
 
 
@@ -197,9 +248,11 @@ async def main() -> None:
         f"2. {HOSTS} hosts polling AA at {HOST_HZ:g} Hz through the N1 face of one paced line,"
         f" a CB every {WRITE_EVERY:g} s, {seconds:g} s each"
     )
-    for baud in (9600, 115200):
-        with contextlib.suppress(KeyboardInterrupt):
-            await many_hosts(baud, seconds)
+    with contextlib.suppress(KeyboardInterrupt):
+        await many_hosts(9600, seconds)
+        for share in (0.5, 0.25, 0.1):
+            await many_hosts(9600, seconds, share)
+        await many_hosts(115200, seconds)
 
 
 if __name__ == "__main__":

@@ -54,6 +54,12 @@ class LineConfig:
     poll_interval: float = 0.2
     slow_interval: float = 1.0
     history_interval: float = 10.0
+    poll_share: float = 1.0
+    """The poller's share of the line's time (0 < share <= 1) while consumers read: after a
+    poll exchange it waits until its exchanges took at most this share, so that hosts' reads
+    meet fewer long poll reads on the wire (on a slow line, a host's read arriving during a
+    poll read waits for its end). 1 (the default): no limit. The model then refreshes less
+    often while consumers read; never so little that it goes stale."""
     io_ports: tuple[int, ...] = (0,)
     max_age: float | None = None
     """Deprecated: no effect (reads are answered from the model only when a request asks)."""
@@ -81,6 +87,11 @@ class LineConfig:
             value = getattr(self, key)
             if not _seconds(value):
                 raise ConfigError(f"{where}.{key}: {value!r} is not a positive number of seconds")
+        if not (isinstance(self.poll_share, (int, float)) and 0 < self.poll_share <= 1):
+            raise ConfigError(
+                f"{where}.poll_share: {self.poll_share!r} is not a share of the line's time"
+                " (more than 0, at most 1)"
+            )
         if self.max_age is not None and not _seconds(self.max_age, zero=True):
             raise ConfigError(f"{where}.max_age: {self.max_age!r} is not 0 or more seconds")
         for port in self.io_ports:
@@ -158,6 +169,7 @@ _LINE_KEYS = {
     "poll_interval": float,
     "slow_interval": float,
     "history_interval": float,
+    "poll_share": float,
     "io_ports": list,
     "max_age": float,
     "channels": dict,

@@ -66,7 +66,7 @@ from robostar.serve.line_queue import (
 )
 from robostar.serve.line_queue import Job as _Job
 from robostar.serve.model import ControllerModel, Quality
-from robostar.serve.model_keys import ModelFeed, model_key
+from robostar.serve.model_keys import ModelFeed, changed_by, model_key
 from robostar.serve.poller import Poller, stale_after
 from robostar.serve.reads import ReadFlights
 from robostar.types import ControllerInfo
@@ -350,6 +350,7 @@ class Line:
         self._check_open()
         command.encode()  # bad input fails here, before it waits in the queue
         self._reads_waiting += 1
+        self.poller.consumer_read()
         try:
             result, began = await self.reads.read(command, PRI_READ, who)
         finally:
@@ -541,7 +542,7 @@ class Line:
             if job.command.CHANGES_STATE:
                 # refused or of unknown outcome, it may still have changed something (a BC past
                 # the soft limits raises an alarm): no value read before it may answer now
-                self._state_changed()
+                self._state_changed(None)
             await self._line_trouble(exc)  # first: the waiter then sees the line as it is
             self._exchanged(job, exc)
             if not job.future.done():
@@ -559,16 +560,18 @@ class Line:
         self._timeouts = 0
         self._count(started, error=False)
         if job.command.CHANGES_STATE:
-            self._state_changed()
+            self._state_changed(changed_by(job.command))
         self._exchanged(job, result)
         if not job.future.done():
             job.future.set_result(result)
 
-    def _state_changed(self) -> None:
+    def _state_changed(self, changed: frozenset[str] | None) -> None:
         """A state change went out: the model is not vouched for until read again, and the
-        poller reads it all again at once, so subscribers see the effect promptly."""
+        poller reads again at once what it may have changed (``changed``: those model keys
+        beside status and positions; None: everything), so subscribers see the effect
+        promptly."""
         self.model.invalidate()
-        self.poller.state_changed()
+        self.poller.state_changed(changed)
 
     def _count(self, started: float, *, error: bool) -> None:
         self.health.count(time.perf_counter() - started, error=error)

@@ -7,15 +7,16 @@ import math
 from typing import Any
 
 from robostar.commands.base import Command
-from robostar.commands.control import ReadSpeed
-from robostar.commands.files import ReadAlarmHistory
-from robostar.commands.io import ReadInputs, ReadOutputs
+from robostar.commands.control import ReadSpeed, SetSpeed
+from robostar.commands.files import CopyFile, DeleteFile, ReadAlarmHistory, RenameFile, UploadFile
+from robostar.commands.io import ReadInputs, ReadOutputs, SetOutput
 from robostar.commands.job import ReadJobName, ReadJobStep
 from robostar.commands.status import ReadAlarms, ReadInfo, ReadPosition, ReadStatus
+from robostar.commands.variables import WriteGlobalFloat, WriteGlobalInt, WriteGlobalPoint
 from robostar.serve.model import ControllerModel
 from robostar.types import PositionKind
 
-__all__ = ["ModelFeed", "keys_of", "model_key"]
+__all__ = ["ModelFeed", "changed_by", "keys_of", "model_key"]
 
 _STATUS_KEYS = tuple(f"ch{n}/status" for n in (1, 2, 3))
 """AA answers the status of the three channels at once."""
@@ -53,6 +54,26 @@ def keys_of(command: Command[Any]) -> set[str]:
         return set(_STATUS_KEYS)
     key = model_key(command)
     return set() if key is None else {key}
+
+
+def changed_by(command: Command[Any]) -> frozenset[str] | None:
+    """The model keys a state change carried out may have changed beside the status and the
+    positions (which the poller reads every cycle), or None: anything (the default for every
+    command not named here, and for any refused or unknown outcome, which the caller handles).
+
+    Only what the manual leaves no doubt about is narrowed: a speed change changes that
+    channel's speed; a global variable write changes no polled value; an output may change the
+    inputs it is wired to; a file written, copied, renamed or deleted may be a selected job."""
+    match command:
+        case SetSpeed(channel=ch):
+            return frozenset((f"ch{ch}/speed",))
+        case WriteGlobalInt() | WriteGlobalFloat() | WriteGlobalPoint():
+            return frozenset()
+        case SetOutput(port=port):
+            return frozenset((f"io/out/{port}", f"io/in/{port}"))
+        case UploadFile() | DeleteFile() | CopyFile() | RenameFile():
+            return frozenset(f"ch{n}/{what}" for n in (1, 2, 3) for what in ("job", "step"))
+    return None
 
 
 class ModelFeed:

@@ -19,7 +19,7 @@ import logging
 import math
 import time
 from collections.abc import Callable
-from typing import Any, TypeVar, cast
+from typing import Any, cast
 
 from robostar.commands.base import Command
 from robostar.commands.control import ReadSpeed
@@ -37,11 +37,12 @@ from robostar.serve.model_keys import keys_of, model_key
 from robostar.serve.reads import ReadFlights
 from robostar.types import PositionKind
 
-__all__ = ["STEADY_KEYS", "Poller", "stale_after"]
+__all__ = ["CONTENTION_WINDOW", "STEADY_KEYS", "Poller", "stale_after"]
 
-R = TypeVar("R")
 log = logging.getLogger("robostar.serve")
 
+CONTENTION_WINDOW = 1.0
+"""Seconds after a consumer's read during which the poller keeps to its share of the wire."""
 STEADY_KEYS = frozenset(("info", "online"))
 """Model values set when the line opens or closes, not by the poller."""
 
@@ -79,13 +80,28 @@ class Poller:
         """Poll reads the controller answered 0x33 (not supported): not asked again until the
         line reopens (by :func:`model_key`, else the command's code)."""
         self._poll_now = asyncio.Event()
-        self._written = False
+        self._reread_all = False
+        """A state change of unknown reach went out: the next pass reads everything."""
+        self._reread_keys: set[str] = set()
+        """Model keys narrow state changes may have changed: the next pass reads them."""
+        self._consumer_at = -math.inf
+        """``time.monotonic()`` of the last consumer read (see :meth:`consumer_read`)."""
 
-    def state_changed(self) -> None:
-        """A state change went out (carried out, refused or of unknown outcome): read it all
-        again at once, the slow values included, so subscribers see its effect promptly."""
-        self._written = True
+    def state_changed(self, changed: frozenset[str] | None = None) -> None:
+        """A state change went out: read again at once what it may have changed, so
+        subscribers see its effect promptly: ``changed`` model keys (beyond status and
+        positions, which a narrow change such as a speed leaves alone), or everything (None:
+        the default, and what a refused change or one of unknown outcome gets)."""
+        if changed is None:
+            self._reread_all = True
+        else:
+            self._reread_keys |= changed
         self._poll_now.set()
+
+    def consumer_read(self) -> None:
+        """A consumer's read is waiting for the line: the poller keeps to its share of the wire
+        for a while (see :attr:`LineConfig.poll_share`)."""
+        self._consumer_at = time.monotonic()
 
     def line_opened(self) -> None:
         """The line may lead to another controller (or the same one reconfigured) now: what it
@@ -93,6 +109,7 @@ class Poller:
         self.unsupported.clear()
 
     async def run(self) -> None:
+        next_cycle = 0.0
         next_slow = 0.0
         next_history = 0.0
         while True:
@@ -101,25 +118,31 @@ class Poller:
             # cleared as the cycle starts, not as it ends: a write that lands during the cycle
             # sets it again and the next cycle starts at once (it would be lost otherwise)
             self._poll_now.clear()
+            reread_all, reread = self._reread_all, self._reread_keys
+            self._reread_all, self._reread_keys = False, set()
+            cycle = started >= next_cycle or reread_all
             try:
-                fast: list[Command[Any]] = [ReadStatus()]
-                for ch in self._channels():
-                    fast.append(ReadPosition(ch, PositionKind.XY))
-                    fast.append(ReadPosition(ch, PositionKind.ANGLE))
-                if started >= next_slow or self._written:
-                    self._written = False
-                    next_slow = started + self.config.slow_interval
-                    fast.append(ReadAlarms())
+                commands: list[Command[Any]] = []
+                if cycle:
+                    next_cycle = started + self.config.poll_interval
+                    commands.append(ReadStatus())
                     for ch in self._channels():
-                        fast += [ReadSpeed(ch), ReadJobName(ch), ReadJobStep(ch)]
-                    for port in self.config.io_ports:
-                        fast += [ReadInputs(port), ReadOutputs(port)]
+                        commands.append(ReadPosition(ch, PositionKind.XY))
+                        commands.append(ReadPosition(ch, PositionKind.ANGLE))
+                slow = self._slow_reads()
+                if started >= next_slow or reread_all:
+                    next_slow = started + self.config.slow_interval
+                    commands += slow
+                elif reread:
+                    # a narrow change (a speed, an output): only what it may have changed
+                    commands += [c for c in slow if keys_of(c) & reread]
                 if started >= next_history:
                     next_history = started + self.config.history_interval
-                    fast.append(ReadAlarmHistory())
-                for command in fast:
+                    commands.append(ReadAlarmHistory())
+                for command in commands:
                     await self._poll_one(command)
-                self.health.last_poll = time.time()
+                if cycle:
+                    self.health.last_poll = time.time()
             except LineDownError:
                 await asyncio.sleep(0.05)
                 continue
@@ -129,7 +152,7 @@ class Poller:
                 # and "info" are the line's own, set as it opens or drops (a poll failing as
                 # the line dropped made its "online: false" stale)
                 self.model.age_out(math.inf, keep=STEADY_KEYS)
-            delay = self.config.poll_interval - (time.monotonic() - started)
+            delay = next_cycle - time.monotonic()
             # asyncio.wait, not wait_for: on Python 3.11 wait_for can swallow a cancellation
             # that races with the event, and stop() would wait forever for the poller.
             waiter = asyncio.ensure_future(self._poll_now.wait())
@@ -137,6 +160,15 @@ class Poller:
                 await asyncio.wait({waiter}, timeout=max(0.0, delay))
             finally:
                 waiter.cancel()
+
+    def _slow_reads(self) -> list[Command[Any]]:
+        """Speed, job, step, alarms and I/O: read every ``slow_interval``."""
+        slow: list[Command[Any]] = [ReadAlarms()]
+        for ch in self._channels():
+            slow += [ReadSpeed(ch), ReadJobName(ch), ReadJobStep(ch)]
+        for port in self.config.io_ports:
+            slow += [ReadInputs(port), ReadOutputs(port)]
+        return slow
 
     async def watch_staleness(self) -> None:
         """Mark the model's good values STALE while no poll has completed for a while (a
@@ -155,7 +187,7 @@ class Poller:
         if self._recent(command, self.config.poll_interval / 2):
             return  # a consumer's read refreshed it moments ago: the wire has better to do
         try:
-            await self._poll_read(command)
+            began = await self._poll_read(command)
         except NotSupportedError as exc:
             # 0x33: a channel without a robot, an option the controller lacks: stop asking. The
             # value it had (if any) is not vouched for any more.
@@ -169,6 +201,22 @@ class Poller:
             log.debug("line %s: poll of %s refused (%s)", self.config.name, key, exc)
             self._mark_stale(command)
             return
+        await self._give_way(time.time() - began)
+
+    async def _give_way(self, wire_time: float) -> None:
+        """While consumers read, keep the poller's wire time to ``poll_share`` of the line's:
+        after an exchange of ``wire_time`` seconds, wait ``wire_time * (1 - share) / share``
+        (an exchange on the wire cannot be interrupted, so a host's read arriving during a long
+        poll read waits for its end: on a slow line that is the hosts' latency). Never while
+        the model is late (its freshness comes first then)."""
+        share = self.config.poll_share
+        if share >= 1.0 or math.isnan(wire_time) or wire_time <= 0:
+            return
+        if time.monotonic() - self._consumer_at > CONTENTION_WINDOW:
+            return
+        if (self.health.poll_age or 0.0) > stale_after(self.config) / 2:
+            return
+        await asyncio.sleep(wire_time * (1.0 - share) / share)
 
     def _mark_stale(self, command: Command[Any]) -> None:
         """Mark STALE the good model values that ``command`` (a poll read) refreshes."""
@@ -178,10 +226,10 @@ class Poller:
             others = self.model.snapshot().keys() - keys
             self.model.age_out(math.inf, keep=others)
 
-    async def _poll_read(self, command: Command[R]) -> R:
+    async def _poll_read(self, command: Command[Any]) -> float:
         """A poll read, a flight like a consumer's (its answer refreshes the model): behind
         the consumers' reads, until the model would go stale waiting; from then on ahead of
-        them."""
+        them. The ``time.time()`` its exchange began."""
         limit = stale_after(self.config)
         age = self.health.poll_age or 0.0
         self._check_open()
@@ -195,8 +243,8 @@ class Poller:
                 raise
             if not done:
                 self.reads.hurry(command, PRI_LATE_POLL)
-        result, _ = await answer  # cancelled with the poller: the flight drops it
-        return cast(R, result)
+        _, began = await answer  # cancelled with the poller: the flight drops it
+        return cast(float, began)
 
     async def wait_polled(self, timeout: float = 5.0) -> None:
         """Wait until a complete poll cycle has ended after now (tests, the CLI's start-up)."""
