@@ -32,7 +32,6 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import functools
-import ipaddress
 import logging
 import socket
 import ssl
@@ -48,15 +47,13 @@ from robostar.controller_role.limits import (
 )
 from robostar.controller_role.session import Backend, ControllerSession, Refusal, Request
 from robostar.errors import UsageError
-from robostar.listen import check_host, check_port
+from robostar.listen import Network, admits, check_host, check_port, parse_networks
 from robostar.protocol.fields import FLAG_FAILED
 from robostar.serve.faces.n1 import peer_owner
 from robostar.serve.faces.n1.peer_owner import PeerOwner, lookup_due, peer_name
 from robostar.transport.peer import BytePeer
 
-__all__ = ["AsyncHost", "parse_networks"]
-
-Network = ipaddress.IPv4Network | ipaddress.IPv6Network
+__all__ = ["AsyncHost"]
 
 log = logging.getLogger(__name__)
 
@@ -311,21 +308,6 @@ class _Connection(asyncio.Protocol):
         self.peer = None
 
 
-def parse_networks(items: Iterable[object]) -> tuple[Network, ...]:
-    """``["192.0.2.7", "198.51.100.0/24", "2001:db8::/32"]`` as networks (a bare address is /32)."""
-    if isinstance(items, str | bytes):
-        raise UsageError(f"allow_from: {items!r} is not a list of addresses or networks")
-    networks: list[Network] = []
-    for item in items:
-        try:
-            networks.append(ipaddress.ip_network(str(item).strip(), strict=False))
-        except ValueError:
-            raise UsageError(
-                f"allow_from: {item!r} is not an address or network (e.g. 192.0.2.7, 10.1.0.0/16)"
-            ) from None
-    return tuple(networks)
-
-
 class AsyncHost:
     """Serves one byte peer per TCP connection, made by ``factory(connection_name)``.
 
@@ -355,17 +337,7 @@ class AsyncHost:
 
     def admits(self, peername: object) -> bool:
         """Whether a peer at ``peername`` (a socket address) may be served."""
-        if self.allow_from is None:
-            return True
-        if not isinstance(peername, tuple) or not peername:
-            return False
-        try:
-            address = ipaddress.ip_address(str(peername[0]).split("%")[0])
-        except ValueError:
-            return False
-        if isinstance(address, ipaddress.IPv6Address) and address.ipv4_mapped is not None:
-            address = address.ipv4_mapped
-        return address.is_loopback or any(address in network for network in self.allow_from)
+        return admits(self.allow_from, peername)
 
     @property
     def clients(self) -> int:
