@@ -1,4 +1,5 @@
-"""Listening addresses: loopback unless asked, port ranges, ``HOST:PORT`` text, remote warnings."""
+"""Listening addresses: loopback unless asked, port ranges, ``HOST:PORT`` text, remote warnings,
+and the peers a listener serves (``allow_from``, for faces whose protocol has no authentication)."""
 
 from __future__ import annotations
 
@@ -6,18 +7,24 @@ import ipaddress
 import logging
 import socket
 import sys
+from collections.abc import Iterable, Mapping
 
 from robostar.errors import UsageError
 
 __all__ = [
     "DEFAULT_LISTEN",
+    "Network",
+    "admits",
     "check_host",
     "check_port",
     "is_loopback",
     "parse_listen",
+    "parse_networks",
     "tcp_url",
     "warn_remote",
 ]
+
+Network = ipaddress.IPv4Network | ipaddress.IPv6Network
 
 DEFAULT_LISTEN = "127.0.0.1:9100"
 
@@ -86,3 +93,35 @@ def warn_remote(host: str, port: int, what: str) -> None:
     )
     print(text, file=sys.stderr, flush=True)
     log.warning(text)
+
+
+def parse_networks(items: object, where: str = "allow_from") -> tuple[Network, ...]:
+    """``["192.0.2.7", "198.51.100.0/24", "2001:db8::/32"]`` as networks (a bare address is one
+    host); a UsageError naming ``where`` (the option, e.g. ``modbus.allow_from``) when wrong."""
+    if isinstance(items, str | bytes | Mapping) or not isinstance(items, Iterable):
+        raise UsageError(f"{where}: {items!r} is not a list of addresses or networks")
+    networks: list[Network] = []
+    for item in items:
+        try:
+            networks.append(ipaddress.ip_network(str(item).strip(), strict=False))
+        except ValueError:
+            raise UsageError(
+                f"{where}: {item!r} is not an address or network (e.g. 192.0.2.7, 10.1.0.0/16)"
+            ) from None
+    return tuple(networks)
+
+
+def admits(allow_from: tuple[Network, ...] | None, peername: object) -> bool:
+    """Whether a peer at ``peername`` (a socket address) is served: loopback always, others only
+    when ``allow_from`` names them (None: everyone the listener's address reaches)."""
+    if allow_from is None:
+        return True
+    if not isinstance(peername, tuple) or not peername:
+        return False
+    try:
+        address = ipaddress.ip_address(str(peername[0]).split("%")[0])
+    except ValueError:
+        return False
+    if isinstance(address, ipaddress.IPv6Address) and address.ipv4_mapped is not None:
+        address = address.ipv4_mapped
+    return address.is_loopback or any(address in network for network in allow_from)

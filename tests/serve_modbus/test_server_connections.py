@@ -15,9 +15,10 @@ from pymodbus.exceptions import ModbusException
 
 from robostar import __version__
 from robostar.errors import UsageError
+from robostar.listen import admits
 from robostar.serve.faces.modbus.layout import IR, MAP_VERSION
 from robostar.serve.faces.modbus.server import RegisterServer
-from robostar.serve.faces.modbus.settings import admits, settings_from
+from robostar.serve.faces.modbus.settings import settings_from
 
 from .conftest import Cell, cell, until
 

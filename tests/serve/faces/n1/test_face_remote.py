@@ -13,10 +13,11 @@ import trustme
 
 from robostar.commands.status import ReadStatus
 from robostar.errors import UsageError
+from robostar.listen import parse_networks
 from robostar.protocol.frame import encode_packet
 from robostar.serve import LineConfig, LineServer, ServeConfig
 from robostar.serve.faces import create_face
-from robostar.serve.faces.n1.host import AsyncHost, parse_networks
+from robostar.serve.faces.n1.host import AsyncHost
 
 _ACK = b"\x06"
 _STX, _ETX = 0x02, 0x03

@@ -8,6 +8,7 @@ import asyncio
 import os
 import pwd
 import socket
+import time
 from pathlib import Path
 
 import pytest
@@ -15,7 +16,7 @@ import pytest
 from robostar.client import Client
 from robostar.serve import LineConfig, LineServer, ServeConfig
 from robostar.serve.faces.n1 import peer_owner
-from robostar.serve.faces.n1.peer_owner import describe_peer, find_owner
+from robostar.serve.faces.n1.peer_owner import describe_peer, find_owner, lookup_due, peer_name
 
 
 @pytest.fixture(autouse=True)
@@ -68,3 +69,27 @@ def test_an_n1_host_program_holds_control_under_its_user() -> None:
             assert holder.endswith(f" ({ME}, {COMMAND} pid {os.getpid()})"), holder
 
     asyncio.run(main())
+
+
+def test_only_local_peers_are_looked_up_at_most_five_a_second(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A lookup is work for a thread: none for a peer elsewhere or one a certificate names,
+    and at most five a second."""
+    now = [1000.0]
+    monkeypatch.setattr(time, "monotonic", lambda: now[0])
+    assert lookup_due(("192.0.2.7", 51394)) is None
+    assert lookup_due(("127.0.0.1", 51394), common_name="mes-7") is None
+    due = [lookup_due(("127.0.0.1", port)) for port in range(1, 8)]
+    assert due == [("127.0.0.1", port) for port in range(1, 6)] + [None, None]
+    now[0] += 1.0
+    assert lookup_due(("::ffff:127.0.0.1", 9)) == ("::ffff:127.0.0.1", 9)
+
+
+def test_a_peer_is_named_by_its_certificate_or_its_owner() -> None:
+    owner = peer_owner.PeerOwner("olga", 4242, "robostar")
+    assert peer_name(("127.0.0.1", 51394)) == "127.0.0.1:51394"
+    assert (
+        peer_name(("127.0.0.1", 51394), owner=owner) == "127.0.0.1:51394 (olga, robostar pid 4242)"
+    )
+    assert peer_name(("::1", 7, 0, 0), common_name="mes-7") == "::1:7 (mes-7)"

@@ -29,10 +29,9 @@ from pymodbus.simulator import DataType, SimData, SimDevice
 
 from robostar import __version__
 from robostar.errors import UsageError
-from robostar.listen import check_host
+from robostar.listen import Network, admits, check_host
 from robostar.serve.faces.modbus.image import Image
 from robostar.serve.faces.modbus.layout import DI, HR, IR, MAP_VERSION
-from robostar.serve.faces.modbus.settings import Network, admits
 from robostar.transport.url import netloc
 
 __all__ = ["RegisterServer", "RegisterSource"]

@@ -19,20 +19,17 @@ allow = ["run_job", "stop_job", "servo", "reset_alarms"]
 
 from __future__ import annotations
 
-import ipaddress
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
 from robostar.commands.variables import ReadGlobalFloat, ReadGlobalInt
 from robostar.errors import UsageError
-from robostar.listen import is_loopback, parse_listen
+from robostar.listen import Network, is_loopback, parse_listen, parse_networks
 from robostar.serve.faces.modbus.handshake import NAMES, STOP_NAMES
 from robostar.serve.faces.modbus.layout import MAX_GLOBALS, GlobalRange
 
-__all__ = ["DEFAULT_ALLOW", "ModbusSettings", "Network", "admits", "settings_from"]
-
-Network = ipaddress.IPv4Network | ipaddress.IPv6Network
+__all__ = ["DEFAULT_ALLOW", "ModbusSettings", "settings_from"]
 
 _OPTIONS = frozenset(
     (
@@ -111,7 +108,12 @@ def settings_from(options: Mapping[str, Any], line_names: set[str] | None = None
     allow_remote = options.get("allow_remote", False)
     if not isinstance(allow_remote, bool):
         raise UsageError(f"modbus.allow_remote: {allow_remote!r} is not true or false")
-    allow_from = _networks(options.get("allow_from"))
+    allow_from_option = options.get("allow_from")
+    allow_from = (
+        None
+        if allow_from_option is None
+        else parse_networks(allow_from_option, "modbus.allow_from")
+    )
     lines: dict[str, tuple[str, int]] = {}
     for name, listen in lines_option.items():
         if line_names is not None and name not in line_names:
@@ -181,37 +183,3 @@ def _commands(table: Any) -> frozenset[str]:
             " start a JOB must be able to stop it"
         )
     return frozenset(allow) if enabled else frozenset()
-
-
-def _networks(items: Any) -> tuple[Network, ...] | None:
-    """``["192.0.2.7", "10.1.0.0/16"]`` as networks (a bare address is one host)."""
-    if items is None:
-        return None
-    if not isinstance(items, list):
-        raise UsageError(f"modbus.allow_from: {items!r} is not a list of addresses or networks")
-    networks: list[Network] = []
-    for item in items:
-        try:
-            networks.append(ipaddress.ip_network(str(item).strip(), strict=False))
-        except ValueError:
-            raise UsageError(
-                f"modbus.allow_from: {item!r} is not an address or network"
-                " (e.g. 192.0.2.7, 10.1.0.0/16)"
-            ) from None
-    return tuple(networks)
-
-
-def admits(allow_from: tuple[Network, ...] | None, peername: object) -> bool:
-    """Whether a peer at ``peername`` (a socket address) is served: loopback always, others
-    only when ``allow_from`` names them (None: everyone)."""
-    if allow_from is None:
-        return True
-    if not isinstance(peername, tuple) or not peername:
-        return False
-    try:
-        address = ipaddress.ip_address(str(peername[0]).split("%")[0])
-    except ValueError:
-        return False
-    if isinstance(address, ipaddress.IPv6Address) and address.ipv4_mapped is not None:
-        address = address.ipv4_mapped
-    return address.is_loopback or any(address in network for network in allow_from)

@@ -17,9 +17,8 @@ from typing import TYPE_CHECKING, Any
 
 from robostar.controller_role.limits import HostLimits
 from robostar.errors import UsageError
-from robostar.listen import is_loopback, parse_listen
+from robostar.listen import is_loopback, parse_listen, parse_networks
 from robostar.serve.faces.n1.face import N1Face
-from robostar.serve.faces.n1.host import parse_networks
 
 if TYPE_CHECKING:
     from robostar.serve.line_server import LineServer
@@ -75,7 +74,7 @@ def create(server: LineServer, options: Mapping[str, Any]) -> N1Face:
         cert, key, ca = (str(f) for f in tls_files)
         context = mutual_tls_context(cert, key, ca)
     allow_from = options.get("allow_from")
-    networks = None if allow_from is None else parse_networks(allow_from)
+    networks = None if allow_from is None else parse_networks(allow_from, "n1.allow_from")
     listens: dict[str, tuple[str, int]] = {}
     for name, listen in lines.items():
         if name not in server.lines:

@@ -15,6 +15,13 @@ until it falls silent for a second, so its host program learns that nothing was 
 of seeing the connection vanish after it sent a request (which it must take as "outcome
 unknown").
 
+A connection is named before its session is made (the line's audit and lease name the session's
+host by it, so it never changes): by its client certificate, else, for a peer on this machine, by
+the user and process that hold its socket. Finding those reads ``/proc`` (tens of ms), so it runs
+in a worker thread while the loop serves everyone else; bytes the host sends meanwhile wait in a
+buffer and are fed to the session once it exists. The connection holds its slot (``max_clients``)
+from the start, and the idle limit and a close apply to it during the lookup as after.
+
 Beyond loopback the N1 protocol has no authentication of its own, so a host can be told which
 peers it serves: ``allow_from`` (addresses and networks; loopback is always allowed) and/or an
 ``ssl`` context (mutual TLS when the context requires client certificates).
@@ -24,7 +31,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import ipaddress
+import functools
 import logging
 import socket
 import ssl
@@ -40,14 +47,13 @@ from robostar.controller_role.limits import (
 )
 from robostar.controller_role.session import Backend, ControllerSession, Refusal, Request
 from robostar.errors import UsageError
-from robostar.listen import check_host, check_port
+from robostar.listen import Network, admits, check_host, check_port, parse_networks
 from robostar.protocol.fields import FLAG_FAILED
-from robostar.serve.faces.n1.peer_owner import describe_peer
+from robostar.serve.faces.n1 import peer_owner
+from robostar.serve.faces.n1.peer_owner import PeerOwner, lookup_due, peer_name
 from robostar.transport.peer import BytePeer
 
-__all__ = ["AsyncHost", "parse_networks"]
-
-Network = ipaddress.IPv4Network | ipaddress.IPv6Network
+__all__ = ["AsyncHost"]
 
 log = logging.getLogger(__name__)
 
@@ -63,6 +69,9 @@ TURN_AWAY_IDLE = 1.0
 sends its request as soon as it connects, and its KD right after the refusal."""
 TURN_AWAY_MAX = 10.0
 """Seconds a connection past ``max_clients`` is kept at most, however busy it is."""
+NAMING_BUFFER = 1 << 16
+"""Bytes kept from a connection while its name is looked up; past this it is not read until
+its session exists (a host program sends one request, a few hundred bytes, then waits)."""
 
 
 def _keepalive(sock: socket.socket) -> None:
@@ -109,6 +118,9 @@ class _Connection(asyncio.Protocol):
         self._idle_timer: asyncio.TimerHandle | None = None
         self._opened = self._last_activity = self.loop.time()
         self._turned_away = False
+        self._early: bytearray | None = None
+        """Bytes received while the connection's name is looked up (None: not looking)."""
+        self._lost = False
 
     def connection_made(self, transport: asyncio.BaseTransport) -> None:
         assert isinstance(transport, asyncio.Transport)
@@ -140,22 +152,56 @@ class _Connection(asyncio.Protocol):
             self._socket_options(transport)
             self._idle_timer = self.loop.call_later(TURN_AWAY_IDLE, self._check_idle)
             return
-        # who is at the other end, for the log and the audit: the certificate's name, or the
-        # local user and process of a peer on this machine (N1 itself carries no user name)
-        self.name = describe_peer(address, common_name=_common_name(transport))
-        try:
-            self.peer = owner.factory(self.name)
-        except Exception:
-            log.exception("%s: cannot open a session for %s", owner.name, self.name)
-            transport.abort()
-            return
-        if isinstance(self.peer, ControllerSession):
-            self.peer.on_ready = self._soon
+        # The slot is held from now on, while the name is looked up too.
         owner.connections.add(self)
-        log.info("%s: client %s connected", owner.name, self.name)
         self._socket_options(transport)
         if owner.idle_timeout is not None:
             self._idle_timer = self.loop.call_later(owner.idle_timeout, self._check_idle)
+        # who is at the other end, for the log and the audit: the certificate's name, or the
+        # local user and process of a peer on this machine (N1 itself carries no user name)
+        common_name = _common_name(transport)
+        due = lookup_due(address, common_name=common_name)
+        if due is None:
+            self._open(peer_name(address, common_name=common_name))
+            return
+        self._early = bytearray()
+        lookup = self.loop.run_in_executor(None, peer_owner.find_owner, *due)
+        lookup.add_done_callback(functools.partial(self._named, address))
+
+    def _named(self, address: object, lookup: asyncio.Future[PeerOwner | None]) -> None:
+        """The lookup ended: open the session under its name (unless the connection is gone)."""
+        transport = self.transport
+        if self._lost or transport is None or transport.is_closing():
+            log.debug("%s: %s left before it was named", self.owner.name, self.name)
+            return
+        found: PeerOwner | None = None
+        if not lookup.cancelled():
+            try:
+                found = lookup.result()
+            except Exception:
+                log.exception("%s: looking up who holds %s failed", self.owner.name, self.name)
+        self._open(peer_name(address, owner=found))
+
+    def _open(self, name: str) -> None:
+        """Make the connection's session, named ``name``, and feed it what came meanwhile."""
+        owner, transport = self.owner, self.transport
+        assert transport is not None
+        self.name = name
+        early, self._early = self._early, None
+        try:
+            peer = owner.factory(name)
+        except Exception:
+            log.exception("%s: cannot open a session for %s", owner.name, name)
+            transport.abort()
+            return
+        self.peer = peer
+        if isinstance(peer, ControllerSession):
+            peer.on_ready = self._soon
+        log.info("%s: client %s connected", owner.name, name)
+        if early is not None and len(early) >= NAMING_BUFFER:
+            transport.resume_reading()
+        if early:
+            self._feed(bytes(early))
 
     @staticmethod
     def _socket_options(transport: asyncio.Transport) -> None:
@@ -188,6 +234,16 @@ class _Connection(asyncio.Protocol):
         transport.close()
 
     def data_received(self, data: bytes) -> None:
+        early = self._early
+        if early is not None:  # the session is not made yet: its name is being looked up
+            self._last_activity = self.loop.time()
+            early += data
+            if len(early) >= NAMING_BUFFER and self.transport is not None:
+                self.transport.pause_reading()
+            return
+        self._feed(data)
+
+    def _feed(self, data: bytes) -> None:
         peer = self.peer
         if peer is None:
             return
@@ -237,32 +293,19 @@ class _Connection(asyncio.Protocol):
             self.transport.abort()
 
     def connection_lost(self, exc: Exception | None) -> None:
+        self._lost = True
+        self._early = None
         if self._timer is not None:
             self._timer.cancel()
         if self._idle_timer is not None:
             self._idle_timer.cancel()
         self.owner.turned_away.discard(self)
-        if self in self.owner.connections:
-            self.owner.connections.discard(self)
+        self.owner.connections.discard(self)
+        if self.peer is not None and not self._turned_away:
             log.info("%s: client %s left", self.owner.name, self.name)
         if isinstance(self.peer, ControllerSession):
             self.peer.close()
         self.peer = None
-
-
-def parse_networks(items: Iterable[object]) -> tuple[Network, ...]:
-    """``["192.0.2.7", "198.51.100.0/24", "2001:db8::/32"]`` as networks (a bare address is /32)."""
-    if isinstance(items, str | bytes):
-        raise UsageError(f"allow_from: {items!r} is not a list of addresses or networks")
-    networks: list[Network] = []
-    for item in items:
-        try:
-            networks.append(ipaddress.ip_network(str(item).strip(), strict=False))
-        except ValueError:
-            raise UsageError(
-                f"allow_from: {item!r} is not an address or network (e.g. 192.0.2.7, 10.1.0.0/16)"
-            ) from None
-    return tuple(networks)
 
 
 class AsyncHost:
@@ -294,17 +337,7 @@ class AsyncHost:
 
     def admits(self, peername: object) -> bool:
         """Whether a peer at ``peername`` (a socket address) may be served."""
-        if self.allow_from is None:
-            return True
-        if not isinstance(peername, tuple) or not peername:
-            return False
-        try:
-            address = ipaddress.ip_address(str(peername[0]).split("%")[0])
-        except ValueError:
-            return False
-        if isinstance(address, ipaddress.IPv6Address) and address.ipv4_mapped is not None:
-            address = address.ipv4_mapped
-        return address.is_loopback or any(address in network for network in self.allow_from)
+        return admits(self.allow_from, peername)
 
     @property
     def clients(self) -> int:

@@ -11,9 +11,12 @@ namespace, no ``/proc``) the address alone is the name. Over mutual TLS the clie
 common name is the name the console sends, and comes first.
 
 Reading ``/proc/net/tcp`` and the processes' descriptors takes tens of milliseconds on a busy
-machine, on the server's event loop: at most :data:`LOOKUPS_PER_SECOND` connections a second are
-looked up (a loop of connections from a local program must not stall the line); past that a
-connection is named by its address.
+machine, so :func:`find_owner` blocks: an event loop runs it in a worker thread (the N1 face's
+host does) and names the connection from its answer with :func:`peer_name`;
+:func:`describe_peer` is both in one blocking call. At most :data:`LOOKUPS_PER_SECOND` connections
+a second are looked up (:func:`lookup_due` counts them: a loop of connections from a local
+program must not keep threads busy reading ``/proc``); past that a connection is named by its
+address.
 """
 
 from __future__ import annotations
@@ -27,7 +30,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-__all__ = ["PeerOwner", "describe_peer", "find_owner"]
+__all__ = ["PeerOwner", "describe_peer", "find_owner", "lookup_due", "peer_name"]
 
 LOOKUPS_PER_SECOND = 5
 """Connections a second whose local owner is looked up; the others keep their address."""
@@ -54,18 +57,34 @@ class PeerOwner:
 
 def describe_peer(address: object, *, common_name: str | None = None) -> str:
     """The name of a connection's peer (``peername``) for logs and the audit log: its address,
-    with the certificate's common name or the local user and process that holds it when known."""
-    if isinstance(address, tuple) and len(address) >= 2:
-        host, port = str(address[0]), int(address[1])
-        name = f"{host}:{port}"
-    else:
+    with the certificate's common name or the local user and process that holds it when known.
+    Blocking (it may read ``/proc``): on an event loop, run :func:`find_owner` in a thread."""
+    due = lookup_due(address, common_name=common_name)
+    owner = None if due is None else find_owner(*due)
+    return peer_name(address, common_name=common_name, owner=owner)
+
+
+def peer_name(
+    address: object, *, common_name: str | None = None, owner: PeerOwner | None = None
+) -> str:
+    """``HOST:PORT``, followed by the certificate's common name or the local owner when given."""
+    if not isinstance(address, tuple) or len(address) < 2:
         return str(address)
-    if common_name:
-        return f"{name} ({common_name})"
-    if not _may_look_up(time.monotonic()):
-        return name
-    owner = find_owner(host, port)
-    return name if owner is None else f"{name} ({owner})"
+    name = f"{address[0]}:{int(address[1])}"
+    known = common_name or owner
+    return name if not known else f"{name} ({known})"
+
+
+def lookup_due(address: object, *, common_name: str | None = None) -> tuple[str, int] | None:
+    """The ``(host, port)`` whose local owner :func:`find_owner` should look for now, or None
+    when there is nothing to look up (a certificate names the peer, the peer is on another
+    machine) or this second's lookups are spent. A lookup it returns is counted."""
+    if common_name or not isinstance(address, tuple) or len(address) < 2:
+        return None
+    host, port = str(address[0]), int(address[1])
+    if _loopback(host) is None or not _may_look_up(time.monotonic()):
+        return None
+    return host, port
 
 
 _lookups: collections.deque[float] = collections.deque(maxlen=LOOKUPS_PER_SECOND)
@@ -82,13 +101,8 @@ def _may_look_up(now: float) -> bool:
 def find_owner(host: str, port: int, proc: Path = Path("/proc")) -> PeerOwner | None:
     """The user (and process) of this machine whose socket is bound to ``host:port``, or None
     (not a loopback peer, not Linux, not found)."""
-    try:
-        ip: Address = ipaddress.ip_address(host.split("%", 1)[0])
-    except ValueError:
-        return None
-    if isinstance(ip, ipaddress.IPv6Address) and ip.ipv4_mapped is not None:
-        ip = ip.ipv4_mapped
-    if not ip.is_loopback:
+    ip = _loopback(host)
+    if ip is None:
         return None  # its socket is on another machine
     found = _socket_row(ip, port, proc)
     if found is None:
@@ -106,6 +120,17 @@ def find_owner(host: str, port: int, proc: Path = Path("/proc")) -> PeerOwner | 
     except OSError:
         command = None
     return PeerOwner(user, pid, command)
+
+
+def _loopback(host: str) -> Address | None:
+    """``host`` as a loopback address (an IPv4-mapped one as IPv4), or None."""
+    try:
+        ip: Address = ipaddress.ip_address(host.split("%", 1)[0])
+    except ValueError:
+        return None
+    if isinstance(ip, ipaddress.IPv6Address) and ip.ipv4_mapped is not None:
+        ip = ip.ipv4_mapped
+    return ip if ip.is_loopback else None
 
 
 def _socket_row(ip: Address, port: int, proc: Path) -> tuple[int, int] | None:
