@@ -341,10 +341,6 @@ def _moves_on(event: FrameEvent) -> bool:
     )
 
 
-def _holds_packet(backlog: list[FrameEvent]) -> bool:
-    return any(isinstance(e, Packet) for e in backlog)
-
-
 def _flag_of(data: bytes) -> int:
     """An answer packet's flag, or -1 when the packet is too short to hold one (as
     :func:`~robostar.protocol.packets.split_answer` reads it: a leading FF is the dummy)."""

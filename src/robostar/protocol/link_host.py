@@ -8,13 +8,12 @@ from collections.abc import Sequence
 
 from robostar.errors import LinkRuleError
 from robostar.protocol.fields import FLAG_END, FLAG_OK
-from robostar.protocol.frame import MAX_PACKET, encode_packet
+from robostar.protocol.frame import MAX_PACKET, CorruptPacket, Packet, encode_packet
 from robostar.protocol.link_base import (
     _ERROR_FLAGS,
     _RESEND_SHARE,
     Link,
     _flag_of,
-    _holds_packet,
     announced_wait,
 )
 from robostar.protocol.link_events import (
@@ -41,6 +40,9 @@ from robostar.protocol.link_table import (
 )
 from robostar.protocol.link_timers import HostTimers
 from robostar.protocol.packets import Shape, split_answer
+
+_RECEIVING = frozenset((State.WAIT_ANSWER, State.WAIT_MORE))
+"""The states a multi-packet answer arrives in."""
 
 
 class HostLink(FenceRules, ResyncRules, CleanAnswer, HostTimers, Link):
@@ -320,11 +322,14 @@ class HostLink(FenceRules, ResyncRules, CleanAnswer, HostTimers, Link):
             # Never shorten the wait: in WAIT_SECOND it runs to the announced work time.
             self._extend(self.timeout + self.resend_grace)
             return
-        if data == self._last_received and self._backlog and _holds_packet(self._backlog):
-            # A copy of the packet we ACKed last with another packet right behind it, in the
+        if data == self._last_received and self._sent_behind():
+            # A copy of the packet we ACKed last with another frame right behind it, in the
             # same read: the controller sent it without waiting for an ACK, which a controller
             # answering us never does (it sends the next packet only after our ACK, and
-            # resends only after its timeout). It repeats its previous answer: not data.
+            # resends only after its timeout). It repeats its previous answer: not data, and
+            # not ACKed. The frame behind may be damaged: ACKing the copy then would count
+            # for the packet behind it, and our NAK would bring the one after that (an FA
+            # download lost a line and kept the copy, its count still right).
             self._emit(Ignored("a repeat of the last packet, sent without waiting", self.state))
             return
         flag = _flag_of(data)
@@ -332,6 +337,8 @@ class HostLink(FenceRules, ResyncRules, CleanAnswer, HostTimers, Link):
             self._rule_broken(
                 LinkRuleError("host", self.state.value, "packet", f"unknown flag in {data!r}")
             )
+            return
+        if flag == FLAG_OK and self._ahead_of_our_acks("packet"):
             return
         self._packets += 1
         self._bytes += len(data)
@@ -387,6 +394,37 @@ class HostLink(FenceRules, ResyncRules, CleanAnswer, HostTimers, Link):
         self._emit(AnswerReceived(data, flag, final=True))
         self._finish(_COMPLETE)
 
+    def _nak_corrupt(self, data: bytes) -> None:
+        if self._ahead_of_our_acks("damaged frame"):
+            return
+        super()._nak_corrupt(data)
+
+    def _ahead_of_our_acks(self, what: str) -> bool:
+        """In a multi-packet answer, more came right behind this frame, before the controller
+        could have our ACK or NAK of it: it took an ACK we never sent (a doubled ACK byte) and
+        runs a packet ahead of our ACKs. From there a NAK brings the packet after the damaged
+        one, and a frame lost whole goes unnoticed (an FA download kept its line count with a
+        line lost and another doubled), so the exchange is given up (True)."""
+        if self.shape is not Shape.MULTI or self.state not in _RECEIVING or not self._sent_behind():
+            return False
+        self._rule_broken(
+            LinkRuleError(
+                "host",
+                self.state.value,
+                what,
+                "another frame came right behind it, before our answer to it: the controller "
+                "runs ahead of our ACKs",
+            )
+        )
+        return True
+
+    def _sent_behind(self) -> bool:
+        """Did the controller send more right behind the packet in hand, in the same read (a
+        packet, a damaged frame or the start of one), so before it could have our answer?"""
+        if not self.decoder.between_frames:
+            return True
+        return any(isinstance(event, Packet | CorruptPacket) for event in self._backlog)
+
     def _h_timeout(self, data: bytes) -> None:
         if self.state is State.WAIT_ANSWER and self._maybe_answer:
             # A read whose only answer was an equal copy of the previous one, taken for a
@@ -412,7 +450,7 @@ class HostLink(FenceRules, ResyncRules, CleanAnswer, HostTimers, Link):
 
     def _h_upload_reply(self, data: bytes) -> None:
         self._good_packet()
-        if data == self._last_reply and self._backlog and _holds_packet(self._backlog):
+        if data == self._last_reply and self._sent_behind():
             # Two replies in one read: the controller answers each packet once, so the first,
             # a copy of its previous reply, is a repeat and accepts nothing.
             self._emit(Ignored("a repeat of the last reply, sent without waiting", self.state))
