@@ -1,29 +1,35 @@
-"""Jogging: BF keeps coming within 500 ms while other threads and tasks use the client, and BG
-is sent however the jog ends - body exception, Ctrl-C, a failed keepalive, exit, SIGTERM.
+"""Jogging: BF comes once per keepalive interval while other threads and tasks use the client,
+and BG is sent however the jog ends - body exception, Ctrl-C, a failed keepalive, exit, SIGTERM.
 
-The 500 ms is the controller's rule (the manual: a jog stops without BF within 500 ms), so the
-gaps are measured where the controller sees them: at the simulator, as requests arrive.
+The keepalive schedule runs here on a simulated clock that the test moves one interval at a
+time, so "one BF per interval, whatever the other users of the client do" is counted, not
+timed; the keepalives are counted where the controller sees them, at the simulator, as
+requests arrive. How far under the controller's 500 ms the real gaps stay on a loaded machine
+is a speed figure: ``python -m bench.jog`` measures it.
 """
 
 from __future__ import annotations
 
 import asyncio
-import itertools
 import os
 import signal
 import subprocess
 import sys
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
+from types import SimpleNamespace
 
 import pytest
 
 from robostar.client import AsyncClient, Client, JogInterruptedError
+from robostar.client import jog as jog_module
+from robostar.client.locks import AsyncPriorityLock, PriorityLock
 from robostar.errors import OutcomeUnknownError, PortError
 from robostar.protocol.frame import FrameDecoder, Packet
 from robostar.sim import VirtualController
+from robostar.sim import controller as controller_module
 from robostar.sim.faults import FaultInjector
 from robostar.sim.listeners import SimServer
 from robostar.transport import AsyncPeerTransport, BytePeer, PeerTransport
@@ -32,23 +38,26 @@ from .conftest import sim_config
 
 pytestmark = pytest.mark.timeout(60)
 
-LIMIT = 0.5
-MARGIN = 0.1
-"""The gaps must stay this far under the controller's limit."""
+INTERVAL = 0.2
+"""The client's keepalive interval (its default), in simulated seconds here."""
+INTERVALS = 8
+GIVE_UP = 20.0
+"""Real seconds after which a wait for the next keepalive fails the test: reached only when a
+keepalive never comes, never a measure of speed."""
 
 
 class Arrivals:
-    """A byte peer in front of the simulator that notes when each request arrives."""
+    """A byte peer in front of the simulator that notes each request as it arrives."""
 
     def __init__(self, peer: BytePeer) -> None:
         self.peer = peer
         self._decoder = FrameDecoder()
-        self.times: list[tuple[float, str]] = []
+        self.codes: list[str] = []
 
     def feed(self, data: bytes, now: float) -> None:
         for event in self._decoder.feed(data):
             if isinstance(event, Packet) and event.data[:1] == b"\xff":
-                self.times.append((now, event.data[1:3].decode()))
+                self.codes.append(event.data[1:3].decode())
         self.peer.feed(data, now)
 
     def output(self, now: float) -> bytes:
@@ -57,18 +66,58 @@ class Arrivals:
     def next_deadline(self) -> float | None:
         return self.peer.next_deadline()
 
-    def keepalive_gaps(self) -> list[float]:
-        """Gaps from BE to the first BF and between BFs, up to BG."""
-        times = [t for t, code in self.times if code in ("BE", "BF")]
-        return [b - a for a, b in itertools.pairwise(times)]
-
     def count(self, code: str) -> int:
-        return sum(1 for _, c in self.times if c == code)
+        return self.codes.count(code)
+
+
+class SimulatedClock:
+    """``time.monotonic`` for the jog's keepalive schedule, moved only by :meth:`advance`."""
+
+    def __init__(self) -> None:
+        self.now = 1000.0
+        self.reads = 0
+
+    def monotonic(self) -> float:
+        self.reads += 1
+        return self.now
+
+    def advance(self, seconds: float) -> None:
+        self.now += seconds
+
+
+@pytest.fixture
+def clock(monkeypatch: pytest.MonkeyPatch) -> SimulatedClock:
+    """The jog module's clock, simulated. The simulator's jog watchdog (500 ms in real seconds)
+    is set out of reach: real gaps mean nothing on a simulated schedule (bench.jog times them)."""
+    simulated = SimulatedClock()
+    monkeypatch.setattr(jog_module, "time", SimpleNamespace(monotonic=simulated.monotonic))
+    monkeypatch.setattr(controller_module, "JOG_WATCHDOG", 3600.0)
+    return simulated
 
 
 @pytest.fixture
 def controller() -> VirtualController:
     return VirtualController(sim_config(speedup=5.0))
+
+
+def wait_for(condition: Callable[[], bool], what: str) -> None:
+    """Block until ``condition()`` holds (GIVE_UP real seconds: it never will, a failure)."""
+    give_up = time.monotonic() + GIVE_UP
+    while not condition():
+        assert time.monotonic() < give_up, f"never: {what}"
+        time.sleep(0.002)
+
+
+def one_keepalive_per_interval(arrivals: Arrivals, clock: SimulatedClock) -> None:
+    """Move the clock one interval at a time: each brings exactly one BF, never more."""
+    wait_for(lambda: arrivals.count("BE") == 1, "BE")
+    # BE reads no clock: the first read is the keepalive's start of its schedule
+    wait_for(lambda: clock.reads > 0, "the keepalive's schedule")
+    for sent in range(1, INTERVALS + 1):
+        assert arrivals.count("BF") == sent - 1  # none before it is due
+        clock.advance(INTERVAL)
+        wait_for(lambda n=sent: arrivals.count("BF") >= n, f"BF number {sent}")  # type: ignore[misc]
+    wait_for(lambda: arrivals.count("AA") > 10, "the other users' turns")
 
 
 def busy(client: Client, stop: threading.Event) -> None:
@@ -80,21 +129,21 @@ def busy(client: Client, stop: threading.Event) -> None:
 
 
 @pytest.mark.parametrize("line", ["memory", "tcp"])
-def test_keepalives_stay_under_500_ms_while_other_threads_use_the_client(
-    controller: VirtualController, line: str
+def test_one_keepalive_per_interval_while_other_threads_use_the_client(
+    controller: VirtualController, clock: SimulatedClock, line: str
 ) -> None:
     arrivals = Arrivals(controller)
     server = SimServer(arrivals).start() if line == "tcp" else None
     port = server.url if server else PeerTransport(arrivals)
     try:
-        with Client(port, timeout=1.0) as client:
+        with Client(port, timeout=1.0, keepalive=INTERVAL) as client:
             stop = threading.Event()
             workers = [threading.Thread(target=busy, args=(client, stop)) for _ in range(3)]
             for worker in workers:
                 worker.start()
             try:
                 with client.jog(1, 1, "+") as jog:
-                    time.sleep(2.0)
+                    one_keepalive_per_interval(arrivals, clock)
             finally:
                 stop.set()
                 for worker in workers:
@@ -103,20 +152,20 @@ def test_keepalives_stay_under_500_ms_while_other_threads_use_the_client(
     finally:
         if server is not None:
             server.close()
-    gaps = arrivals.keepalive_gaps()
-    assert len(gaps) >= 8
-    assert max(gaps) < LIMIT - MARGIN, gaps
+    assert arrivals.count("BF") == INTERVALS
     assert arrivals.count("BG") == 1
-    assert arrivals.count("AA") > 10  # the other threads did get their turns
+    jog_codes = [code for code in arrivals.codes if code in ("BE", "BF", "BG")]
+    assert jog_codes == ["BE", *["BF"] * INTERVALS, "BG"]
 
 
-def test_async_keepalives_stay_under_500_ms_while_other_tasks_use_the_client(
-    controller: VirtualController,
+def test_async_one_keepalive_per_interval_while_other_tasks_use_the_client(
+    controller: VirtualController, clock: SimulatedClock
 ) -> None:
     arrivals = Arrivals(controller)
 
     async def main() -> None:
-        async with AsyncClient(AsyncPeerTransport(arrivals), timeout=1.0) as client:
+        transport = AsyncPeerTransport(arrivals)
+        async with AsyncClient(transport, timeout=1.0, keepalive=INTERVAL) as client:
 
             async def busy_task() -> None:
                 while True:
@@ -124,19 +173,139 @@ def test_async_keepalives_stay_under_500_ms_while_other_tasks_use_the_client(
                     await client.download_job(1, "DEMO.JOB")
 
             tasks = [asyncio.create_task(busy_task()) for _ in range(3)]
-            async with client.jog(1, 1, "+"):
-                await asyncio.sleep(2.0)
+            async with client.jog(1, 1, "+") as jog:
+                await asyncio.to_thread(one_keepalive_per_interval, arrivals, clock)
             for task in tasks:
                 task.cancel()
             await asyncio.gather(*tasks, return_exceptions=True)
+            assert jog.error is None
             assert not (await client.status())[0].running
 
     asyncio.run(main())
-    gaps = arrivals.keepalive_gaps()
-    assert len(gaps) >= 8
-    assert max(gaps) < LIMIT - MARGIN, gaps
+    assert arrivals.count("BF") == INTERVALS
     assert arrivals.count("BG") == 1
-    assert arrivals.count("AA") > 10
+    jog_codes = [code for code in arrivals.codes if code in ("BE", "BF", "BG")]
+    assert jog_codes == ["BE", *["BF"] * INTERVALS, "BG"]
+
+
+class Gate:
+    """A byte peer in front of the simulator that, while :meth:`hold` lasts, keeps requests
+    from reaching it (control bytes go through): the exchange in progress cannot end, so the
+    client's other users queue for the line, and :meth:`release` lets them go in the order the
+    client chooses."""
+
+    def __init__(self, peer: BytePeer) -> None:
+        self.peer = peer
+        self._held: bytearray | None = None
+        self.stuck = threading.Event()
+        """Set when a request is held back."""
+
+    def hold(self) -> None:
+        self.stuck.clear()
+        self._held = bytearray()
+
+    def release(self, now: float) -> None:
+        held, self._held = self._held, None
+        if held:
+            self.peer.feed(bytes(held), now)
+
+    def feed(self, data: bytes, now: float) -> None:
+        held = self._held
+        if held is None:
+            self.peer.feed(data, now)
+            return
+        start = data.find(b"\x02") if not held else 0  # ACKs before a request go through
+        if start < 0:
+            self.peer.feed(data, now)
+            return
+        if start:
+            self.peer.feed(data[:start], now)
+        held += data[start:]
+        self.stuck.set()
+
+    def output(self, now: float) -> bytes:
+        return self.peer.output(now)
+
+    def next_deadline(self) -> float | None:
+        # a reader waiting for a held request's answer looks again soon after the release
+        return time.monotonic() + 0.001 if self._held is not None else self.peer.next_deadline()
+
+
+def waiting(lock: PriorityLock | AsyncPriorityLock) -> tuple[int, int]:
+    """(urgent, all) callers waiting for the client's line (white box: no other view)."""
+    if isinstance(lock, PriorityLock):
+        return lock._urgent, lock._waiting
+    waiters = [urgent for urgent, granted in list(lock._waiters) if not granted.done()]
+    return sum(waiters), len(waiters)
+
+
+def keepalive_goes_first(
+    gate: Gate, arrivals: Arrivals, clock: SimulatedClock, lock: PriorityLock | AsyncPriorityLock
+) -> None:
+    """Hold an exchange of another user, let two more queue, make BF due: once the held
+    exchange ends, the next request on the line is the BF, ahead of the users that waited
+    longer."""
+    wait_for(lambda: clock.reads > 0, "the keepalive's schedule")
+    gate.hold()
+    wait_for(gate.stuck.is_set, "an exchange in progress")
+    wait_for(lambda: waiting(lock) == (0, 2), "two other users waiting for the line")
+    clock.advance(INTERVAL)
+    wait_for(lambda: waiting(lock) == (1, 3), "the keepalive waiting for the line")
+    before = len(arrivals.codes)
+    gate.release(time.monotonic())
+    wait_for(lambda: arrivals.count("BF") == 1, "the BF")
+    assert arrivals.codes[before] != "BF"  # the held request, the exchange in progress
+    assert arrivals.codes[before + 1] == "BF", arrivals.codes[before:]
+
+
+def test_a_due_keepalive_goes_before_the_other_threads_waiting(
+    controller: VirtualController, clock: SimulatedClock
+) -> None:
+    arrivals = Arrivals(controller)
+    gate = Gate(arrivals)
+    with Client(PeerTransport(gate), timeout=GIVE_UP, keepalive=INTERVAL) as client:
+        stop = threading.Event()
+        workers = [threading.Thread(target=busy, args=(client, stop)) for _ in range(3)]
+        try:
+            with client.jog(1, 1, "+") as jog:
+                for worker in workers:
+                    worker.start()
+                keepalive_goes_first(gate, arrivals, clock, client._lock)
+        finally:
+            stop.set()
+            for worker in workers:
+                worker.join()
+        assert jog.error is None
+
+
+def test_async_a_due_keepalive_goes_before_the_other_tasks_waiting(
+    controller: VirtualController, clock: SimulatedClock
+) -> None:
+    arrivals = Arrivals(controller)
+    gate = Gate(arrivals)
+
+    async def main() -> None:
+        transport = AsyncPeerTransport(gate)
+        async with AsyncClient(transport, timeout=GIVE_UP, keepalive=INTERVAL) as client:
+
+            async def busy_task() -> None:
+                while True:
+                    await client.status()
+                    await client.download_job(1, "DEMO.JOB")
+
+            async with client.jog(1, 1, "+") as jog:
+                tasks = [asyncio.create_task(busy_task()) for _ in range(3)]
+                try:
+                    await asyncio.to_thread(
+                        keepalive_goes_first, gate, arrivals, clock, client._lock
+                    )
+                finally:
+                    for task in tasks:
+                        task.cancel()
+                    await asyncio.gather(*tasks, return_exceptions=True)
+            assert jog.error is None
+
+    asyncio.run(main())
 
 
 def test_ctrl_c_in_the_body_still_sends_bg(controller: VirtualController) -> None:
@@ -153,7 +322,7 @@ def test_a_failed_keepalive_is_reported_when_the_jog_ends(controller: VirtualCon
     with Client(PeerTransport(faults), timeout=0.15) as client:
         with pytest.raises(JogInterruptedError) as caught, client.jog(1, 1, "+") as jog:
             faults.schedule("drop", "to_host", at_byte=0, count=4)  # the next BF's answer
-            time.sleep(0.8)
+            wait_for(lambda: jog.error is not None, "the keepalive failing")
         assert isinstance(caught.value.__cause__, OutcomeUnknownError)
         assert jog.error is caught.value.__cause__
         assert controller.executions["BG"] == 1
@@ -164,9 +333,9 @@ def test_a_line_lost_mid_jog_is_a_jog_interrupted_error_with_bgs_outcome(
 ) -> None:
     faults = FaultInjector(controller, seed=5)
     with Client(PeerTransport(faults), timeout=0.15) as client:
-        with pytest.raises(JogInterruptedError) as caught, client.jog(1, 1, "+"):
+        with pytest.raises(JogInterruptedError) as caught, client.jog(1, 1, "+") as jog:
             faults.schedule("disconnect", "to_host", at_byte=0)  # the line goes dead
-            time.sleep(0.8)
+            wait_for(lambda: jog.error is not None, "the keepalive failing")
         assert not isinstance(caught.value, PortError)
         assert caught.value.stop_error is not None  # BG could not be sent either
         assert "BG failed too" in str(caught.value)
@@ -197,7 +366,7 @@ if sys.argv[2] == "app-handler":
 if sys.argv[2] == "no-with":
     client.jog(1, 1, "+").start()
     print("jogging", flush=True)
-    time.sleep(0.6)
+    sys.stdin.readline()  # the test saw a keepalive arrive
     sys.exit(0)
 with client.jog(1, 1, "+"):
     print("jogging", flush=True)
@@ -211,22 +380,28 @@ def served(controller: VirtualController) -> Iterator[tuple[VirtualController, S
         yield controller, server
 
 
-def run_child(server: SimServer, mode: str, tmp_path: Path, *, terminate: bool) -> tuple[int, str]:
+def run_child(
+    served: tuple[VirtualController, SimServer], mode: str, tmp_path: Path, *, terminate: bool
+) -> tuple[int, str]:
+    """Run the child until its jog is alive (a BF reached the controller), then end it: by
+    SIGTERM, or by telling it to exit."""
+    controller, server = served
     script = tmp_path / "child.py"
     script.write_text(CHILD)
     env = {**os.environ, "PYTHONPATH": str(Path(__file__).parents[2] / "src")}
     child = subprocess.Popen(
         [sys.executable, str(script), server.url, mode],
+        stdin=subprocess.PIPE,
         stdout=subprocess.PIPE,
         text=True,
         env=env,
     )
     assert child.stdout is not None
     assert child.stdout.readline().strip() == "jogging"
+    wait_for(lambda: controller.executions["BF"] >= 1, "the child's first keepalive")
     if terminate:
-        time.sleep(0.3)
         child.send_signal(signal.SIGTERM)
-    out, _ = child.communicate(timeout=20)
+    out, _ = child.communicate("exit\n", timeout=GIVE_UP)
     return child.returncode, out
 
 
@@ -234,8 +409,8 @@ def run_child(server: SimServer, mode: str, tmp_path: Path, *, terminate: bool) 
 def test_sigterm_sends_bg_and_exits_as_terminated(
     served: tuple[VirtualController, SimServer], tmp_path: Path
 ) -> None:
-    controller, server = served
-    code, _ = run_child(server, "plain", tmp_path, terminate=True)
+    controller, _ = served
+    code, _ = run_child(served, "plain", tmp_path, terminate=True)
     assert code == 128 + signal.SIGTERM
     assert controller.executions["BE"] == 1 and controller.executions["BF"] >= 1
     assert controller.executions["BG"] == 1
@@ -245,8 +420,8 @@ def test_sigterm_sends_bg_and_exits_as_terminated(
 def test_sigterm_chains_to_the_applications_handler(
     served: tuple[VirtualController, SimServer], tmp_path: Path
 ) -> None:
-    controller, server = served
-    code, out = run_child(server, "app-handler", tmp_path, terminate=True)
+    controller, _ = served
+    code, out = run_child(served, "app-handler", tmp_path, terminate=True)
     assert code == 3 and "app handler" in out
     assert controller.executions["BG"] == 1
 
@@ -254,8 +429,8 @@ def test_sigterm_chains_to_the_applications_handler(
 def test_a_jog_left_running_is_stopped_at_exit(
     served: tuple[VirtualController, SimServer], tmp_path: Path
 ) -> None:
-    controller, server = served
-    code, _ = run_child(server, "no-with", tmp_path, terminate=False)
+    controller, _ = served
+    code, _ = run_child(served, "no-with", tmp_path, terminate=False)
     assert code == 0
     assert controller.executions["BF"] >= 1
     assert controller.executions["BG"] == 1
