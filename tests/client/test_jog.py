@@ -53,11 +53,15 @@ class Arrivals:
         self.peer = peer
         self._decoder = FrameDecoder()
         self.codes: list[str] = []
+        self.times: list[tuple[float, str]] = []
+        """(the transport's clock, code) per request (the dead man's switch tests)."""
 
     def feed(self, data: bytes, now: float) -> None:
         for event in self._decoder.feed(data):
             if isinstance(event, Packet) and event.data[:1] == b"\xff":
-                self.codes.append(event.data[1:3].decode())
+                code = event.data[1:3].decode()
+                self.codes.append(code)
+                self.times.append((now, code))
         self.peer.feed(data, now)
 
     def output(self, now: float) -> bytes:
