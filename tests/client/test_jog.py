@@ -11,6 +11,7 @@ is a speed figure: ``python -m bench.jog`` measures it.
 from __future__ import annotations
 
 import asyncio
+import itertools
 import os
 import signal
 import subprocess
@@ -47,22 +48,23 @@ keepalive never comes, never a measure of speed."""
 
 
 class Arrivals:
-    """A byte peer in front of the simulator that notes each request as it arrives."""
+    """A byte peer in front of the simulator that notes when each request arrives."""
 
     def __init__(self, peer: BytePeer) -> None:
         self.peer = peer
         self._decoder = FrameDecoder()
-        self.codes: list[str] = []
         self.times: list[tuple[float, str]] = []
-        """(the transport's clock, code) per request (the dead man's switch tests)."""
 
     def feed(self, data: bytes, now: float) -> None:
         for event in self._decoder.feed(data):
             if isinstance(event, Packet) and event.data[:1] == b"\xff":
-                code = event.data[1:3].decode()
-                self.codes.append(code)
-                self.times.append((now, code))
+                self.times.append((now, event.data[1:3].decode()))
         self.peer.feed(data, now)
+
+    @property
+    def codes(self) -> list[str]:
+        """The requests' codes, in the order they arrived."""
+        return [code for _, code in self.times]
 
     def output(self, now: float) -> bytes:
         return self.peer.output(now)
@@ -70,8 +72,13 @@ class Arrivals:
     def next_deadline(self) -> float | None:
         return self.peer.next_deadline()
 
+    def keepalive_gaps(self) -> list[float]:
+        """Gaps from BE to the first BF and between BFs, up to BG (real seconds)."""
+        times = [t for t, code in self.times if code in ("BE", "BF")]
+        return [b - a for a, b in itertools.pairwise(times)]
+
     def count(self, code: str) -> int:
-        return self.codes.count(code)
+        return sum(1 for _, c in self.times if c == code)
 
 
 class SimulatedClock:

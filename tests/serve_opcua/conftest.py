@@ -5,8 +5,9 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import json
 import shutil
-from collections.abc import AsyncIterator, Iterator
+from collections.abc import AsyncIterator, Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -19,6 +20,7 @@ from cryptography.x509.oid import ExtendedKeyUsageOID
 
 from robostar.serve import LineConfig, LineServer, ServeConfig
 from robostar.serve.users import Role, UserStore
+from robostar.types import Alarm
 
 CLIENT_URI = "urn:robostar:tests:opcua-client"
 PASSWORDS = {"olga": "operator-pass-1", "vic": "viewer-pass-1"}
@@ -221,3 +223,114 @@ async def until(predicate: Any, timeout: float = 10.0, what: str = "condition") 
         if loop.time() > deadline:
             raise AssertionError(f"timed out waiting for {what}")
         await asyncio.sleep(0.05)
+
+
+def audited(setup: Setup, face: str = "opcua") -> list[tuple[str, str, str]]:
+    """(who, what, outcome) of each audit record ``face`` wrote, in order."""
+    lines = (setup.state / "audit.jsonl").read_text().splitlines()
+    records = [json.loads(line) for line in lines]
+    return [(r["who"], r["what"], r["outcome"]) for r in records if r["face"] == face]
+
+
+# -- alarm conditions, as a SCADA alarm list sees them ------------------------------------------
+ACKNOWLEDGE = ua.NodeId(ua.ObjectIds.AcknowledgeableConditionType_Acknowledge)
+CONFIRM = ua.NodeId(ua.ObjectIds.AcknowledgeableConditionType_Confirm)
+TIMED_SHELVE = ua.NodeId(ua.ObjectIds.ShelvedStateMachineType_TimedShelve)
+ONE_SHOT_SHELVE = ua.NodeId(ua.ObjectIds.ShelvedStateMachineType_OneShotShelve)
+UNSHELVE = ua.NodeId(ua.ObjectIds.ShelvedStateMachineType_Unshelve)
+
+
+class Events:
+    """A subscription's handler: every event notification, in order."""
+
+    def __init__(self) -> None:
+        self.events: list[Any] = []
+
+    def event_notification(self, event: Any) -> None:
+        self.events.append(event)
+
+    def of(self, code: int) -> list[Any]:
+        return [e for e in self.events if getattr(e, "AlarmCode", None) == code]
+
+    async def next_of(self, code: int, seen: int, what: str) -> Any:
+        """The first event of ``code`` after the ``seen`` ones already had."""
+
+        async def more() -> bool:
+            return len(self.of(code)) > seen
+
+        await until(more, what=what)
+        return self.of(code)[seen]
+
+
+def field(event: Any, name: str) -> Any:
+    return getattr(event, name)
+
+
+def text(value: Any) -> str:
+    return value.Text if isinstance(value, ua.LocalizedText) else str(value)
+
+
+async def call(node: Any, method: ua.NodeId, *args: ua.Variant) -> ua.StatusCode:
+    """Call ``method`` on ``node``; the status code it ends with (Good, or the refusal's)."""
+    try:
+        await node.call_method(method, *args)
+    except ua.UaStatusCodeError as exc:
+        return ua.StatusCode(exc.code)
+    return ua.StatusCode(ua.StatusCodes.Good)
+
+
+def ack_args(event: Any, comment: str) -> tuple[ua.Variant, ua.Variant]:
+    """The arguments of Acknowledge, Confirm and AddComment: the event's id and a comment."""
+    return (
+        ua.Variant(field(event, "EventId"), ua.VariantType.ByteString),
+        ua.Variant(ua.LocalizedText(comment), ua.VariantType.LocalizedText),
+    )
+
+
+async def subscribe(client: Client, handler: Events) -> Any:
+    """A subscription to the line's alarm events, as an alarm list makes one."""
+    model = Model(client)
+    subscription = await client.create_subscription(20, handler)
+    await subscription.subscribe_alarms_and_conditions(
+        await model.system(), await model.alarm_event_type()
+    )
+    return subscription
+
+
+@dataclass(frozen=True)
+class RaisedAlarm:
+    """An alarm raised in the line's model, seen by an operator's subscribed client."""
+
+    server: LineServer
+    client: Client
+    events: Events
+    raised: Any
+    """The alarm's first event."""
+    condition: Node
+    """Its condition (the node the event names)."""
+
+
+RaiseAlarm = Callable[[Alarm], contextlib.AbstractAsyncContextManager[RaisedAlarm]]
+
+
+@pytest.fixture
+def raised_alarm(opcua_setup: Setup) -> RaiseAlarm:
+    """``async with raised_alarm(Alarm(code, text)) as alarm:`` serves the face with a slow
+    poller (the alarms the test puts in the model stay there), signs olga in, subscribes to
+    the alarm events, raises the alarm in the model and waits for its first event."""
+
+    @contextlib.asynccontextmanager
+    async def raise_alarm(alarm: Alarm) -> AsyncIterator[RaisedAlarm]:
+        async with (
+            serving(opcua_setup, poll=30.0) as server,
+            connect(server, opcua_setup) as client,
+        ):
+            events = Events()
+            subscription = await subscribe(client, events)
+            server.line("cell1").model.set("alarms", (alarm,))
+            raised = await events.next_of(alarm.code, 0, "the alarm's event")
+            condition = client.get_node(field(raised, "NodeId"))
+            yield RaisedAlarm(server, client, events, raised, condition)
+            await subscription.delete()
+
+    return raise_alarm

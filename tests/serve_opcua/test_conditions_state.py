@@ -8,7 +8,6 @@ condition stays enabled."""
 from __future__ import annotations
 
 import asyncio
-import json
 from typing import Any
 
 import pytest
@@ -16,16 +15,15 @@ from asyncua import ua
 
 from robostar.types import Alarm
 
-from .conftest import Setup, connect, serving
-from .test_conditions import (
+from .conftest import (
     ACKNOWLEDGE,
     CONFIRM,
     ONE_SHOT_SHELVE,
-    Events,
+    RaiseAlarm,
+    Setup,
     ack_args,
+    audited,
     call,
-    field,
-    subscribe,
     text,
 )
 
@@ -51,18 +49,12 @@ async def state_of(condition: Any) -> dict[str, Any]:
     return values
 
 
-def test_a_condition_s_state_is_readable_and_follows_its_events(opcua_setup: Setup) -> None:
+def test_a_condition_s_state_is_readable_and_follows_its_events(
+    raised_alarm: RaiseAlarm,
+) -> None:
     async def main() -> None:
-        async with (
-            serving(opcua_setup, poll=30.0) as server,
-            connect(server, opcua_setup) as client,
-        ):
-            line = server.line("cell1")
-            handler = Events()
-            subscription = await subscribe(client, handler)
-            line.model.set("alarms", (Alarm(1005, "air pressure low"),))
-            raised = await handler.next_of(1005, 0, "the alarm's event")
-            condition = client.get_node(field(raised, "NodeId"))
+        async with raised_alarm(Alarm(1005, "air pressure low")) as alarm:
+            handler, raised, condition = alarm.events, alarm.raised, alarm.condition
             state = await state_of(condition)
             assert state["EnabledState"] == "Enabled" and state["EnabledState/Id"] is True
             assert state["ActiveState"] == "Active" and state["ActiveState/Id"] is True
@@ -87,7 +79,7 @@ def test_a_condition_s_state_is_readable_and_follows_its_events(opcua_setup: Set
                 ua.ObjectIds.ShelvedStateMachineType_OneShotShelved
             )
 
-            line.model.set("alarms", ())
+            alarm.server.line("cell1").model.set("alarms", ())
             cleared = await handler.next_of(1005, 3, "the clearing's event")
             state = await state_of(condition)
             assert state["ActiveState"] == "Inactive" and state["ActiveState/Id"] is False
@@ -99,36 +91,25 @@ def test_a_condition_s_state_is_readable_and_follows_its_events(opcua_setup: Set
             # of no more interest: the condition and its variables are gone
             with pytest.raises(ua.UaStatusCodeError):
                 await read(condition, "ActiveState")
-            await subscription.delete()
 
     asyncio.run(main())
 
 
-def test_enable_and_disable_are_refused_as_not_supported(opcua_setup: Setup) -> None:
+def test_enable_and_disable_are_refused_as_not_supported(
+    opcua_setup: Setup, raised_alarm: RaiseAlarm
+) -> None:
     enable = ua.NodeId(ua.ObjectIds.ConditionType_Enable)
     disable = ua.NodeId(ua.ObjectIds.ConditionType_Disable)
 
     async def main() -> None:
-        async with (
-            serving(opcua_setup, poll=30.0) as server,
-            connect(server, opcua_setup) as client,
-        ):
-            handler = Events()
-            subscription = await subscribe(client, handler)
-            server.line("cell1").model.set("alarms", (Alarm(1007, "vacuum"),))
-            raised = await handler.next_of(1007, 0, "the alarm's event")
-            condition = client.get_node(field(raised, "NodeId"))
+        async with raised_alarm(Alarm(1007, "vacuum")) as alarm:
             for method in (disable, enable):
-                refused = await call(condition, method)
+                refused = await call(alarm.condition, method)
                 assert refused.value == ua.StatusCodes.BadNotSupported
-            state = await state_of(condition)
+            state = await state_of(alarm.condition)
             assert state["EnabledState/Id"] is True and state["ActiveState/Id"] is True
-            assert len(handler.of(1007)) == 1  # nothing changed, so no event
-            await subscription.delete()
-        records = [
-            json.loads(r) for r in (opcua_setup.state / "audit.jsonl").read_text().splitlines()
-        ]
-        mine = [(r["who"], r["what"], r["outcome"]) for r in records if r["face"] == "opcua"]
+            assert len(alarm.events.of(1007)) == 1  # nothing changed, so no event
+        mine = audited(opcua_setup)
         assert ("olga", "Disable(alarm=1007)", "refused: BadNotSupported") in mine
         assert ("olga", "Enable(alarm=1007)", "refused: BadNotSupported") in mine
 
