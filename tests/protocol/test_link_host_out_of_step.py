@@ -1,10 +1,12 @@
 """A multi-packet answer whose controller is out of step with the host's ACKs is never taken
-with a line lost or doubled: a copy of the last packet with a damaged frame right behind it is
-a repeat (not data, not ACKed, so the NAK of the damaged frame brings that very frame again),
-and a frame that comes right behind another before the host could answer it shows a controller
-running a packet ahead of the ACKs (it took a doubled ACK byte for a second one), so the
-exchange is given up rather than NAKed into the wrong packet. The same copy rule holds for FB's
-replies. (Issue 30: an FA download of a JOB file answered ("MAIN", "MAIN", "EOP") for
+with a line lost or doubled. A frame that comes right behind another in one read (before the
+host could answer the first), or right behind bytes that were no whole frame, shows a
+controller running a packet ahead of the ACKs (it took a doubled ACK byte for two): the
+exchange is given up rather than NAKed into the wrong packet. A copy of the last packet with a
+frame behind it is a repeat where no two packets are equal (FD: not data, not ACKed), and
+undecidable where they may be (FA, AB: given up). The same copy rule holds for FB's replies.
+A controller in step (equal packets each after its ACK, a resend after a lost frame) is
+untouched. (Issue 30: an FA download of a JOB file answered ("MAIN", "MAIN", "EOP") for
 ("MAIN", "DELAY 512", "EOP"), its line count still right.)"""
 
 from __future__ import annotations
@@ -58,34 +60,99 @@ def _download() -> Pair:
     return pair
 
 
-def test_a_copy_with_a_damaged_frame_behind_it_is_a_repeat_and_the_nak_brings_that_frame() -> None:
+def test_a_copy_with_a_damaged_frame_behind_it_gives_an_answer_with_equal_packets_up() -> None:
+    # The announcement again, then MAIN damaged, in one read. A repeat of the announcement
+    # (then ACKing it would count for MAIN, and the NAK would bring DELAY), or a controller
+    # running a packet ahead sending two equal packets: which, nothing tells, so nothing of it
+    # is taken.
     pair = _download()
     main = pair.ctl.data_to_send()
     assert main == frame(MAIN)
-    # The line repeats the announcement before MAIN, and MAIN arrives damaged: one read.
     events = pair.host.receive_data(frame(ANNOUNCE) + damaged(MAIN), 0.0)
-    assert Ignored("a repeat of the last packet, sent without waiting", State.WAIT_MORE) in events
+    (failure,) = failures(events)
+    assert failure.reason is FailReason.RULE and "ahead of our ACKs" in failure.detail
     assert answers(events) == []
-    assert pair.host.data_to_send() == NAK_B  # no ACK for the copy: it would count for MAIN
+    sent = pair.host.data_to_send()
+    assert ACK not in sent and NAK not in sent
+
+
+def test_a_copy_with_a_frame_begun_behind_it_in_the_same_read_gives_it_up_too() -> None:
+    pair = _download()
+    main = pair.ctl.data_to_send()
+    events = pair.host.receive_data(frame(ANNOUNCE) + main[:3], 0.0)
+    assert [f.reason for f in failures(events)] == [FailReason.RULE]
+    assert answers(events) == []
+
+
+def test_where_no_two_packets_are_equal_a_copy_with_a_damaged_frame_behind_is_a_repeat() -> None:
+    # FD: every packet names its file, so the copy is a repeat: not data, not ACKed, and the
+    # NAK of the damaged frame brings that very frame again.
+    pair = Pair()
+    listing = [b"0A.JOB", b"0B.JOB", b"0C.JOB", END]
+    pair.host_events += pair.host.send_request(b"\xffFD10*", Shape.MULTI, 0.0, distinct=True)
+    pair.pump()
+    pair.ctl_events += pair.ctl.send_answer(listing, After.DONE, 0.0)
+    pair.host_events += pair.host.receive_data(pair.ctl.data_to_send(), 0.0)
+    pair.ctl_events += pair.ctl.receive_data(pair.host.data_to_send(), 0.0)
+    assert pair.ctl.data_to_send() == frame(listing[1])
+    events = pair.host.receive_data(frame(listing[0]) + damaged(listing[1]), 0.0)
+    assert Ignored("a repeat of the last packet, sent without waiting", State.WAIT_MORE) in events
+    assert pair.host.data_to_send() == NAK_B  # no ACK for the copy: it would count for B.JOB
     pair.host_events += events
     pair.ctl_events += pair.ctl.receive_data(NAK_B, 0.0)
     pair.pump()
     host, ctl = pair.take()
-    assert answers(host) == FILE
+    assert answers(host) == listing
     assert completes(host) == completes(ctl) == 1
-    assert pair.host.idle and pair.ctl.idle
 
 
-def test_a_copy_with_a_frame_begun_behind_it_in_the_same_read_is_a_repeat() -> None:
-    pair = _download()
-    main = pair.ctl.data_to_send()
-    events = pair.host.receive_data(frame(ANNOUNCE) + main[:3], 0.0)
-    assert answers(events) == []
-    assert pair.host.data_to_send() == b""
-    pair.host_events += events + pair.host.receive_data(main[3:], 0.0)
-    pair.pump()
-    host, _ = pair.take()
-    assert answers(host) == FILE
+def test_a_frame_right_behind_bytes_that_were_no_frame_gives_the_exchange_up() -> None:
+    # A controller a packet ahead sent MAIN and DELAY back to back, and MAIN lost its STX:
+    # DELAY alone must not pass for MAIN's successor.
+    host = HostLink()
+    host.send_request(FA, Shape.MULTI, 0.0)
+    host.data_to_send()
+    host.receive_data(frame(ANNOUNCE), 0.0)
+    host.data_to_send()
+    events = host.receive_data(frame(MAIN)[1:] + frame(DELAY), 0.0)
+    (failure,) = failures(events)
+    assert failure.reason is FailReason.RULE and answers(events) == []
+
+
+def test_a_frame_cutting_one_short_in_the_same_read_gives_the_exchange_up() -> None:
+    host = HostLink()
+    host.send_request(FA, Shape.MULTI, 0.0)
+    host.data_to_send()
+    host.receive_data(frame(ANNOUNCE), 0.0)
+    host.data_to_send()
+    events = host.receive_data(frame(MAIN)[:-2] + frame(DELAY), 0.0)
+    (failure,) = failures(events)
+    assert failure.reason is FailReason.RULE and answers(events) == []
+
+
+def test_a_resend_cutting_short_a_frame_of_an_earlier_read_is_taken() -> None:
+    # In step: MAIN lost its end, the controller resends it after its timeout, in a read of
+    # its own. That is the usual recovery, not a controller ahead.
+    host = HostLink()
+    host.send_request(FA, Shape.MULTI, 0.0)
+    host.data_to_send()
+    host.receive_data(frame(ANNOUNCE), 0.0)
+    host.data_to_send()
+    assert host.receive_data(frame(MAIN)[:-2], 0.1) == []
+    events = host.receive_data(frame(MAIN), 2.1)
+    assert answers(events) == [MAIN] and failures(events) == []
+
+
+def test_noise_then_a_packet_in_a_read_of_its_own_after_a_resend_is_taken() -> None:
+    # In step: MAIN lost its STX (noise), the controller resends it after its timeout.
+    host = HostLink()
+    host.send_request(FA, Shape.MULTI, 0.0)
+    host.data_to_send()
+    host.receive_data(frame(ANNOUNCE), 0.0)
+    host.data_to_send()
+    assert answers(host.receive_data(frame(MAIN)[1:], 0.1)) == []
+    events = host.receive_data(frame(MAIN), 2.1)
+    assert answers(events) == [MAIN] and failures(events) == []
 
 
 def test_a_frame_behind_a_packet_before_our_ack_of_it_gives_the_exchange_up() -> None:
