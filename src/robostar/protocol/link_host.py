@@ -447,15 +447,14 @@ class HostLink(FenceRules, ResyncRules, CleanAnswer, HostTimers, Link):
         return True
 
     def _give_up_out_of_step(self, what: str) -> None:
-        self._rule_broken(
-            LinkRuleError(
-                "host",
-                self.state.value,
-                what,
-                "sent without waiting for our answer to the frame before it: the controller "
-                "runs ahead of our ACKs",
-            )
+        error = LinkRuleError(
+            "host",
+            self.state.value,
+            what,
+            "sent without waiting for our answer to the frame before it: the controller "
+            "runs ahead of our ACKs",
         )
+        self._fail(FailReason.OUT_OF_STEP, str(error), send_rst=True, error=error)
 
     def receive_data(self, data: bytes, now: float) -> list[LinkEvent]:
         # Noise or a frame cut short, then a frame, in one read of a multi-packet answer (see
