@@ -53,6 +53,7 @@ from robostar.protocol.packets import Shape, split_answer
 _RECEIVING = frozenset((State.WAIT_ANSWER, State.WAIT_MORE))
 """The states a multi-packet answer arrives in."""
 _CONTROL_BYTES = frozenset((ACK, NAK, RST))
+_MULTI = Shape.MULTI
 
 
 def _noise_then_frame(data: bytes) -> bool:
@@ -457,15 +458,15 @@ class HostLink(FenceRules, ResyncRules, CleanAnswer, HostTimers, Link):
         self._fail(FailReason.OUT_OF_STEP, str(error), send_rst=True, error=error)
 
     def receive_data(self, data: bytes, now: float) -> list[LinkEvent]:
+        if self.shape is not _MULTI or self.state not in _RECEIVING:
+            return Link.receive_data(self, data, now)  # the usual read: nothing to watch
         # Noise or a frame cut short, then a frame, in one read of a multi-packet answer (see
         # _ahead_of_our_acks): the frame came right behind what was lost.
-        watch = (
-            self.shape is Shape.MULTI and self.state in _RECEIVING and self.decoder.between_frames
-        )
+        watch = self.decoder.between_frames
         self._after_lost = watch and _noise_then_frame(data)
         self._watch_read = watch
         try:
-            return super().receive_data(data, now)
+            return Link.receive_data(self, data, now)
         finally:
             self._after_lost = self._watch_read = False
 
