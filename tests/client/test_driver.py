@@ -196,6 +196,24 @@ def test_a_broken_rule_raises_the_links_error() -> None:
     assert error is rule
 
 
+def _out_of_step() -> Outcome:
+    rule = LinkRuleError("host", "WAIT_MORE", "packet", "the controller runs ahead of our ACKs")
+    failure = ExchangeFailed(FailReason.OUT_OF_STEP, State.WAIT_MORE, str(rule), rule)
+    return Outcome((ok(b"0003"),), failure=failure)
+
+
+def test_a_read_given_up_out_of_step_is_asked_again() -> None:
+    # A multi-packet answer sent ahead of the host's ACKs (issue 30): the next try starts in
+    # step, as after a timeout.
+    download = DownloadFile(1, "H5.JOB")
+    answer = Outcome((ok(b"0001"), ok(b"MAIN\n"), make_answer(0x34)))
+    requests, result = drive(download, [_out_of_step(), answer])
+    assert requests == [download, download]
+    assert result == JobFile(("MAIN",), announced=1)
+    requests, error = drive(download, [_out_of_step()] * 3)
+    assert len(requests) == 3 and isinstance(error, LinkRuleError)
+
+
 def test_a_state_change_whose_answer_kept_arriving_corrupt_has_an_unknown_outcome() -> None:
     corrupt = failed(FailReason.NAK_LIMIT, detail="4th corrupt packet in a row")
     _, error = drive(SetSpeed(1, 5), [corrupt])

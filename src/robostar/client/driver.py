@@ -122,6 +122,8 @@ FENCES = (
 """The reads that fence off an abandoned exchange (HostLink): AA, whose answer no other can
 pass for; AD when an AA was given up (then a late AA answer could pass for the fence's)."""
 
+_OUT_OF_STEP = FailReason.OUT_OF_STEP
+
 _NOT_SENT = (State.RESYNC, State.WAIT_FENCE)
 """States a failure can end in before the request went out (its fence failed, or it waited
 for the quiet gap): nothing of the command reached the controller."""
@@ -150,7 +152,7 @@ def failure_error(command: Command[Any], failure: ExchangeFailed, policy: Policy
         ):
             return OutcomeUnknownError(code, "its answer arrived corrupt too many times")
         return NakLimitError(code, MAX_NAKS + 1)
-    if reason is FailReason.TOO_LONG or reason is FailReason.RULE:
+    if reason is FailReason.TOO_LONG or reason is FailReason.RULE or reason is _OUT_OF_STEP:
         error: RobostarError = (
             AnswerTooLongError(code, failure.detail)
             if reason is FailReason.TOO_LONG
@@ -284,7 +286,11 @@ def command_plan(command: Command[T], policy: Policy) -> CommandPlan[T]:
                     attempt += 1
                     continue
                 raise
-        retry = failure.reason is FailReason.TIMEOUT and not command.CHANGES_STATE
+        # A read is asked again after a timeout, and after an answer given up because the
+        # controller ran ahead of our ACKs (a doubled ACK byte): the next try starts in step.
+        retry = (
+            failure.reason is FailReason.TIMEOUT or failure.reason is _OUT_OF_STEP
+        ) and not command.CHANGES_STATE
         if retry and attempt < policy.retries:
             attempt += 1
             continue

@@ -177,9 +177,13 @@ class Link:
             # A frame cut short by a new STX needs no NAK: the next frame is already arriving,
             # and a NAK here would make the sender resend a packet that may have been taken
             # (a duplicated STX byte would then run a command twice).
-            self._emit(Ignored("frame cut short by a new STX", self.state))
+            self._cut_short()
         else:
             self._fire(Input.CORRUPT, event.raw)
+
+    def _cut_short(self) -> None:
+        """A frame was cut short by a new STX."""
+        self._emit(Ignored("frame cut short by a new STX", self.state))
 
     def _fire(self, what: Input, data: bytes) -> None:
         handler = self._handlers.get((self.state, what))

@@ -8,7 +8,16 @@ from collections.abc import Sequence
 
 from robostar.errors import LinkRuleError
 from robostar.protocol.fields import FLAG_END, FLAG_OK
-from robostar.protocol.frame import MAX_PACKET, CorruptPacket, Packet, encode_packet
+from robostar.protocol.frame import (
+    ACK,
+    MAX_PACKET,
+    NAK,
+    RST,
+    STX,
+    CorruptPacket,
+    Packet,
+    encode_packet,
+)
 from robostar.protocol.link_base import (
     _ERROR_FLAGS,
     _RESEND_SHARE,
@@ -43,6 +52,15 @@ from robostar.protocol.packets import Shape, split_answer
 
 _RECEIVING = frozenset((State.WAIT_ANSWER, State.WAIT_MORE))
 """The states a multi-packet answer arrives in."""
+_CONTROL_BYTES = frozenset((ACK, NAK, RST))
+_MULTI = Shape.MULTI
+
+
+def _noise_then_frame(data: bytes) -> bool:
+    """Does ``data``, read between frames, hold bytes that are no frame (nor ACK, NAK, RST)
+    before its first STX?"""
+    start = data.find(STX)
+    return start > 0 and any(byte not in _CONTROL_BYTES for byte in data[:start])
 
 
 class HostLink(FenceRules, ResyncRules, CleanAnswer, HostTimers, Link):
@@ -130,6 +148,8 @@ class HostLink(FenceRules, ResyncRules, CleanAnswer, HostTimers, Link):
         self._stop_early = False  # the exchange open is a stop sent before the gap was over
         self._request_data: bytes | None = None  # the last request sent, and its frame
         self._request_frame = b""
+        self._after_lost = False  # in this read, bytes that were no whole frame came first
+        self._watch_read = False  # this read may show a controller ahead (receive_data)
         self._clean_read = b""  # the last read receive_clean_answer found one whole frame in,
         self._clean_packet = b""  # and that frame's packet
 
@@ -290,6 +310,20 @@ class HostLink(FenceRules, ResyncRules, CleanAnswer, HostTimers, Link):
             # arriving. Not ACKed (the controller dropped that exchange at our RST).
             self._emit(Ignored("stale packet with data in a stop's answer", self.state))
             return
+        if self.shape is Shape.MULTI and data == self._last_received and self._sent_behind():
+            # A copy of the packet we ACKed last with another frame right behind it, in the
+            # same read, so sent without waiting for our ACK: the line (or the controller)
+            # repeating the previous packet before the next, or a controller a packet ahead of
+            # our ACKs (it took a doubled ACK byte for two) sending two equal packets, such as
+            # two equal lines of a job. Where no two packets are equal (FD, FH) it is a
+            # repeat: not data, and not ACKed (an ACK would count for the frame behind it, and
+            # a NAK of that frame would then bring the one after). Otherwise which of the two
+            # cannot be told, and taking the wrong one loses or doubles a line.
+            if not self._distinct:
+                self._give_up_out_of_step("copy of the last packet")
+                return
+            self._emit(Ignored("a repeat of the last packet, sent without waiting", self.state))
+            return
         if data == self._last_received and (
             (self._distinct and self._packets) or self._is_resend(data, self._now)
         ):
@@ -326,10 +360,7 @@ class HostLink(FenceRules, ResyncRules, CleanAnswer, HostTimers, Link):
             # A copy of the packet we ACKed last with another frame right behind it, in the
             # same read: the controller sent it without waiting for an ACK, which a controller
             # answering us never does (it sends the next packet only after our ACK, and
-            # resends only after its timeout). It repeats its previous answer: not data, and
-            # not ACKed. The frame behind may be damaged: ACKing the copy then would count
-            # for the packet behind it, and our NAK would bring the one after that (an FA
-            # download lost a line and kept the copy, its count still right).
+            # resends only after its timeout). It repeats its previous answer: not data.
             self._emit(Ignored("a repeat of the last packet, sent without waiting", self.state))
             return
         flag = _flag_of(data)
@@ -340,6 +371,7 @@ class HostLink(FenceRules, ResyncRules, CleanAnswer, HostTimers, Link):
             return
         if flag == FLAG_OK and self._ahead_of_our_acks("packet"):
             return
+        self._after_lost = False
         self._packets += 1
         self._bytes += len(data)
         if self._packets > self._max_packets or self._bytes > self._max_packets * MAX_PACKET:
@@ -397,26 +429,53 @@ class HostLink(FenceRules, ResyncRules, CleanAnswer, HostTimers, Link):
     def _nak_corrupt(self, data: bytes) -> None:
         if self._ahead_of_our_acks("damaged frame"):
             return
+        self._after_lost = False
         super()._nak_corrupt(data)
 
     def _ahead_of_our_acks(self, what: str) -> bool:
-        """In a multi-packet answer, more came right behind this frame, before the controller
-        could have our ACK or NAK of it: it took an ACK we never sent (a doubled ACK byte) and
-        runs a packet ahead of our ACKs. From there a NAK brings the packet after the damaged
-        one, and a frame lost whole goes unnoticed (an FA download kept its line count with a
-        line lost and another doubled), so the exchange is given up (True)."""
-        if self.shape is not Shape.MULTI or self.state not in _RECEIVING or not self._sent_behind():
+        """In a multi-packet answer, this frame came with another right behind it, or right
+        behind bytes that were no whole frame (a packet that lost its STX or its end), in the
+        same read: the controller sent without waiting for our answer, so it took an ACK we
+        never sent (a doubled ACK byte) and runs a packet ahead of our ACKs. From there a NAK
+        brings the packet after the damaged one, and a frame lost whole goes unnoticed (an FA
+        download kept its line count with a line lost and another doubled), so the exchange
+        is given up (True)."""
+        if self.shape is not Shape.MULTI or self.state not in _RECEIVING:
             return False
-        self._rule_broken(
-            LinkRuleError(
-                "host",
-                self.state.value,
-                what,
-                "another frame came right behind it, before our answer to it: the controller "
-                "runs ahead of our ACKs",
-            )
-        )
+        if not (self._after_lost or self._sent_behind()):
+            return False
+        self._give_up_out_of_step(what)
         return True
+
+    def _give_up_out_of_step(self, what: str) -> None:
+        error = LinkRuleError(
+            "host",
+            self.state.value,
+            what,
+            "sent without waiting for our answer to the frame before it: the controller "
+            "runs ahead of our ACKs",
+        )
+        self._fail(FailReason.OUT_OF_STEP, str(error), send_rst=True, error=error)
+
+    def receive_data(self, data: bytes, now: float) -> list[LinkEvent]:
+        if self.shape is not _MULTI or self.state not in _RECEIVING:
+            return Link.receive_data(self, data, now)  # the usual read: nothing to watch
+        # Noise or a frame cut short, then a frame, in one read of a multi-packet answer (see
+        # _ahead_of_our_acks): the frame came right behind what was lost.
+        watch = self.decoder.between_frames
+        self._after_lost = watch and _noise_then_frame(data)
+        self._watch_read = watch
+        try:
+            return Link.receive_data(self, data, now)
+        finally:
+            self._after_lost = self._watch_read = False
+
+    def _cut_short(self) -> None:
+        super()._cut_short()
+        if self._watch_read:
+            # begun in this read (it began between frames): the frame cutting it came right
+            # behind it, before our answer to it
+            self._after_lost = True
 
     def _sent_behind(self) -> bool:
         """Did the controller send more right behind the packet in hand, in the same read (a

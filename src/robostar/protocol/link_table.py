@@ -116,6 +116,8 @@ class FailReason(enum.Enum):
     ABORTED = "aborted"
     SUPERSEDED = "superseded by a new request"
     TOO_LONG = "answer longer than the command can carry"
+    OUT_OF_STEP = "controller out of step with our ACKs"
+    """A multi-packet answer sent without waiting for our ACKs: given up, a read may ask again."""
 
 
 _H = Role.HOST
