@@ -386,7 +386,13 @@ with client.jog(1, 1, "+"):
 
 
 @pytest.fixture
-def served(controller: VirtualController) -> Iterator[tuple[VirtualController, SimServer]]:
+def served(
+    controller: VirtualController, monkeypatch: pytest.MonkeyPatch
+) -> Iterator[tuple[VirtualController, SimServer]]:
+    """The simulator served here for a child process. Its jog watchdog (500 ms, real seconds)
+    is set out of reach: a child started on a loaded machine may send its first BF late, and
+    what these tests check is how the jog ends, not the watchdog."""
+    monkeypatch.setattr(controller_module, "JOG_WATCHDOG", 3600.0)
     with SimServer(controller) as server:
         yield controller, server
 
