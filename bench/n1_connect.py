@@ -3,8 +3,8 @@
 
 Each local host that connects to the line server's N1 face is named by the user and process
 holding its socket (a read of ``/proc/net/tcp`` and of the processes' descriptors). That lookup
-runs in a worker thread; this bench shows what it would cost the event loop otherwise and what
-the loop sees now:
+runs in a worker thread of its own, one lookup after the other; this bench shows what it would
+cost the event loop otherwise and what the loop sees now:
 
 1. The lookup itself (``find_owner`` for a connected loopback peer), p50 and max: how long
    every line and face of the server stood still per connecting host when it ran on the loop.
@@ -84,7 +84,7 @@ async def burst() -> dict[str, list[float]]:
         address = face.addresses["cell"]  # type: ignore[attr-defined]
         host = face.hosts["cell"]  # type: ignore[attr-defined]
         async with AsyncClient(f"tcp://{address[0]}:{address[1]}") as client:
-            for label in ("quiet", "in threads", "on the loop"):
+            for label in ("quiet", "in a thread", "on the loop"):
                 stop = asyncio.Event()
                 lags: list[float] = []
                 reads: list[float] = []
@@ -124,7 +124,7 @@ def main() -> None:
     )
     figures = asyncio.run(burst())
     print(f"2. {HOSTS} hosts connecting at once while one host polls AA, by where lookups run")
-    for label in ("quiet", "in threads", "on the loop"):
+    for label in ("quiet", "in a thread", "on the loop"):
         lag = figures[f"{label} lag"]
         reads = figures[f"{label} AA"]
         print(

@@ -30,6 +30,7 @@ peers it serves: ``allow_from`` (addresses and networks; loopback is always allo
 from __future__ import annotations
 
 import asyncio
+import concurrent.futures
 import contextlib
 import functools
 import logging
@@ -69,6 +70,19 @@ TURN_AWAY_IDLE = 1.0
 sends its request as soon as it connects, and its KD right after the refusal."""
 TURN_AWAY_MAX = 10.0
 """Seconds a connection past ``max_clients`` is kept at most, however busy it is."""
+_lookup_thread: concurrent.futures.ThreadPoolExecutor | None = None
+
+
+def _lookups() -> concurrent.futures.ThreadPoolExecutor:
+    """The one thread that looks connections' owners up, one after the other: a lookup is
+    Python code as much as system calls, so several at once would take the interpreter from
+    the event loop in turn (the rate limit bounds how many a second)."""
+    global _lookup_thread
+    if _lookup_thread is None:
+        _lookup_thread = concurrent.futures.ThreadPoolExecutor(1, "n1-peer-owner")
+    return _lookup_thread
+
+
 NAMING_BUFFER = 1 << 16
 """Bytes kept from a connection while its name is looked up; past this it is not read until
 its session exists (a host program sends one request, a few hundred bytes, then waits)."""
@@ -165,7 +179,7 @@ class _Connection(asyncio.Protocol):
             self._open(peer_name(address, common_name=common_name))
             return
         self._early = bytearray()
-        lookup = self.loop.run_in_executor(None, peer_owner.find_owner, *due)
+        lookup = self.loop.run_in_executor(_lookups(), peer_owner.find_owner, *due)
         lookup.add_done_callback(functools.partial(self._named, address))
 
     def _named(self, address: object, lookup: asyncio.Future[PeerOwner | None]) -> None:
