@@ -13,10 +13,9 @@ from pathlib import Path
 
 import pytest
 
-from robostar import AsyncClient, ChannelStatus, Client
+from robostar import AsyncClient, Client
 from robostar.commands.control import SetSpeed
 from robostar.commands.status import ReadStatus
-from robostar.controller_role import Backend, ControllerSession, Request
 from robostar.errors import FunctionFailedError
 from robostar.protocol.frame import FrameDecoder, Packet, encode_packet
 from robostar.serve import LineConfig, LineServer, ServeConfig
@@ -24,13 +23,14 @@ from robostar.serve.faces.n1 import peer_owner
 from robostar.serve.faces.n1.host import AsyncHost
 from robostar.serve.faces.n1.peer_owner import PeerOwner
 
+from .host_fakes import STATUS, LateStatus
+
 pytestmark = pytest.mark.timeout(60)
 
 _ACK = b"\x06"
 GIVE_UP = 20.0
 """Seconds a blocked lookup or a test's wait gives up after: only ever reached when the loop is
 stalled (the test then fails), never a measure of speed."""
-STATUS = (ChannelStatus(servo_on=True), ChannelStatus(), ChannelStatus())
 
 
 class SlowLookup:
@@ -130,26 +130,12 @@ def test_the_server_answers_other_hosts_while_a_new_one_is_named(slow_lookup: Sl
     asyncio.run(main())
 
 
-class Status(Backend):
-    """Answers AA with a fixed status; records the sessions made."""
-
-    def __init__(self) -> None:
-        self.sessions: list[str] = []
-
-    def handle(self, request: Request) -> None:
-        request.answer(STATUS)
-
-    def session(self, name: str) -> ControllerSession:
-        self.sessions.append(name)
-        return ControllerSession(self, name=name)
-
-
 @pytest.mark.parametrize("closed_by", ["the host program", "the server", "idle_timeout"])
 def test_a_connection_gone_during_its_lookup_leaves_no_session(
     slow_lookup: SlowLookup, caplog: pytest.LogCaptureFixture, closed_by: str
 ) -> None:
     caplog.set_level(logging.DEBUG, logger="robostar.serve.faces.n1.host")
-    backend = Status()
+    backend = LateStatus()
 
     async def main() -> None:
         idle = 0.05 if closed_by == "idle_timeout" else None
@@ -167,7 +153,7 @@ def test_a_connection_gone_during_its_lookup_leaves_no_session(
             await _until(lambda: host.clients == 0, "the connection is gone")
             slow_lookup.release.set()
             await _until(lambda: "left before it was named" in caplog.text, "the lookup ended")
-            assert backend.sessions == []
+            assert backend.made == []
             writer.close()
         finally:
             await host.close()
@@ -176,7 +162,7 @@ def test_a_connection_gone_during_its_lookup_leaves_no_session(
 
 
 def test_a_connection_being_named_holds_its_slot(slow_lookup: SlowLookup) -> None:
-    backend = Status()
+    backend = LateStatus()
 
     async def main() -> None:
         async with AsyncHost(backend.session, max_clients=1) as host:
@@ -191,8 +177,8 @@ def test_a_connection_being_named_holds_its_slot(slow_lookup: SlowLookup) -> Non
                         await second.status()
                 slow_lookup.release.set()
                 assert await first_status == STATUS
-                assert len(backend.sessions) == 1
-                assert backend.sessions[0].endswith(" (tester)"), backend.sessions
+                assert len(backend.made) == 1
+                assert backend.made[0].endswith(" (tester)"), backend.made
             finally:
                 await first.close()
 
