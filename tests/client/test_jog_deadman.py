@@ -18,7 +18,7 @@ from robostar.sim import VirtualController
 from robostar.transport import AsyncPeerTransport, PeerTransport
 
 from .conftest import sim_config
-from .test_jog import Arrivals
+from .jog_fakes import INTERVAL, INTERVALS, Arrivals, SimulatedClock, wait_for
 
 pytestmark = pytest.mark.timeout(60)
 
@@ -65,22 +65,23 @@ def test_a_switch_given_at_construction_is_kept(controller: VirtualController) -
 
 
 def test_a_hold_that_keeps_being_extended_keeps_the_jog_alive(
-    controller: VirtualController,
+    controller: VirtualController, jog_clock: SimulatedClock
 ) -> None:
+    """Counted on a simulated clock, not timed: each interval a key repeat holds the jog 0.5 s
+    more, and each brings its BF; the switch never lets go."""
     arrivals = Arrivals(controller)
-    with Client(PeerTransport(arrivals), timeout=1.0) as client:
-        held = [time.monotonic() + 0.5]
+    with Client(PeerTransport(arrivals), timeout=1.0, keepalive=INTERVAL) as client:
+        held = [jog_clock.now + 0.5]
         with client.jog(1, 1, "+") as jog:
             jog.held_until = lambda: held[0]
-            end = time.monotonic() + 1.5
-            while time.monotonic() < end:  # key repeats, each holding it 0.5 s more
-                held[0] = time.monotonic() + 0.5
-                time.sleep(0.04)
+            wait_for(lambda: jog_clock.reads > 0, "the keepalive's schedule")
+            for sent in range(1, INTERVALS + 1):
+                held[0] = jog_clock.now + 0.5  # a key repeat
+                jog_clock.advance(INTERVAL)
+                wait_for(lambda n=sent: arrivals.count("BF") >= n, f"BF number {sent}")  # type: ignore[misc]
             assert not jog.expired
             assert client.status()[0].running
-    gaps = arrivals.keepalive_gaps()
-    assert len(gaps) >= 5
-    assert max(gaps) < 0.4, gaps
+    assert arrivals.count("BF") == INTERVALS
     assert arrivals.count("BG") == 1
 
 
