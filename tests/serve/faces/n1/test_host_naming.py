@@ -1,7 +1,8 @@
 """Naming a new N1 connection (who holds its socket: a read of ``/proc``) never holds up the
 server: the loop serves every other host meanwhile, bytes the new host sends before its name is
 known reach its session once it exists (under its final name), and a connection that closes or
-goes silent during the lookup, or the host closing, leaves no session behind."""
+goes silent during the lookup, or the host closing, leaves no session behind (and a lookup still
+queued for it is not made)."""
 
 from __future__ import annotations
 
@@ -41,8 +42,11 @@ class SlowLookup:
         self.entered = threading.Event()
         self.release = threading.Event()
         self.released: list[bool] = []
+        self.ports: list[int] = []
+        """The peers' ports looked up, in order."""
 
     def __call__(self, host: str, port: int, proc: Path = Path("/proc")) -> PeerOwner | None:
+        self.ports.append(port)
         self.entered.set()
         self.released.append(self.release.wait(GIVE_UP))
         return PeerOwner("tester")
@@ -179,6 +183,34 @@ def test_a_connection_being_named_holds_its_slot(slow_lookup: SlowLookup) -> Non
                 assert await first_status == STATUS
                 assert len(backend.made) == 1
                 assert backend.made[0].endswith(" (tester)"), backend.made
+            finally:
+                await first.close()
+
+    asyncio.run(main())
+
+
+def test_a_lookup_queued_for_a_connection_gone_is_not_made(slow_lookup: SlowLookup) -> None:
+    backend = LateStatus()
+
+    async def main() -> None:
+        async with AsyncHost(backend.session) as host:
+            address = await host.start()
+            first = AsyncClient(f"tcp://{address[0]}:{address[1]}", timeout=GIVE_UP)
+            first_status = asyncio.ensure_future(first.status())
+            try:
+                assert await asyncio.to_thread(slow_lookup.entered.wait, GIVE_UP)
+                # the lookup thread is busy with the first: the second's lookup waits its turn
+                _, second = await asyncio.open_connection(*address)
+                await _until(lambda: host.clients == 2, "the second connection")
+                second.close()
+                await _until(lambda: host.clients == 1, "the second connection gone")
+                slow_lookup.release.set()
+                assert await first_status == STATUS
+                # a third connection is looked up after the first, the second never was
+                async with AsyncClient(f"tcp://{address[0]}:{address[1]}") as third:
+                    assert await third.status() == STATUS
+                assert len(slow_lookup.ports) == 2
+                assert len(backend.made) == 2
             finally:
                 await first.close()
 

@@ -134,6 +134,7 @@ class _Connection(asyncio.Protocol):
         self._turned_away = False
         self._early: bytearray | None = None
         """Bytes received while the connection's name is looked up (None: not looking)."""
+        self._lookup: asyncio.Future[PeerOwner | None] | None = None
         self._lost = False
 
     def connection_made(self, transport: asyncio.BaseTransport) -> None:
@@ -179,8 +180,8 @@ class _Connection(asyncio.Protocol):
             self._open(peer_name(address, common_name=common_name))
             return
         self._early = bytearray()
-        lookup = self.loop.run_in_executor(_lookups(), peer_owner.find_owner, *due)
-        lookup.add_done_callback(functools.partial(self._named, address))
+        self._lookup = self.loop.run_in_executor(_lookups(), peer_owner.find_owner, *due)
+        self._lookup.add_done_callback(functools.partial(self._named, address))
 
     def _named(self, address: object, lookup: asyncio.Future[PeerOwner | None]) -> None:
         """The lookup ended: open the session under its name (unless the connection is gone)."""
@@ -309,6 +310,8 @@ class _Connection(asyncio.Protocol):
     def connection_lost(self, exc: Exception | None) -> None:
         self._lost = True
         self._early = None
+        if self._lookup is not None:
+            self._lookup.cancel()  # a lookup still queued is not made
         if self._timer is not None:
             self._timer.cancel()
         if self._idle_timer is not None:
