@@ -25,6 +25,8 @@ from robostar.sim import SimConfig, VirtualController
 from robostar.sim.listeners import PeerHost, PtyServer, SimServer
 from robostar.transport import AsyncPeerTransport, BytePeer, PeerTransport
 
+from .jog_fakes import SimulatedClock, simulate_jog_clock
+
 LINES = ["memory", "tcp", "pty"] if os.name == "posix" else ["memory", "tcp"]
 LINES.append("serve")  # through the line server's N1 face, in front of the simulator
 FLAVORS = ["sync", "async"]
@@ -227,3 +229,9 @@ def robot(request: pytest.FixtureRequest) -> Iterator[Robot]:
     line, flavor = request.param
     with robot_on(line, flavor) as bot:
         yield bot
+
+
+@pytest.fixture
+def jog_clock(monkeypatch: pytest.MonkeyPatch) -> SimulatedClock:
+    """The jog module's clock, simulated (see :func:`jog_fakes.simulate_jog_clock`)."""
+    return simulate_jog_clock(monkeypatch)

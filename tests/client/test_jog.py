@@ -11,24 +11,20 @@ is a speed figure: ``python -m bench.jog`` measures it.
 from __future__ import annotations
 
 import asyncio
-import itertools
 import os
 import signal
 import subprocess
 import sys
 import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from pathlib import Path
-from types import SimpleNamespace
 
 import pytest
 
 from robostar.client import AsyncClient, Client, JogInterruptedError
-from robostar.client import jog as jog_module
 from robostar.client.locks import AsyncPriorityLock, PriorityLock
 from robostar.errors import OutcomeUnknownError, PortError
-from robostar.protocol.frame import FrameDecoder, Packet
 from robostar.sim import VirtualController
 from robostar.sim import controller as controller_module
 from robostar.sim.faults import FaultInjector
@@ -36,87 +32,14 @@ from robostar.sim.listeners import SimServer
 from robostar.transport import AsyncPeerTransport, BytePeer, PeerTransport
 
 from .conftest import sim_config
+from .jog_fakes import GIVE_UP, INTERVAL, INTERVALS, Arrivals, SimulatedClock, wait_for
 
 pytestmark = pytest.mark.timeout(60)
-
-INTERVAL = 0.2
-"""The client's keepalive interval (its default), in simulated seconds here."""
-INTERVALS = 8
-GIVE_UP = 20.0
-"""Real seconds after which a wait for the next keepalive fails the test: reached only when a
-keepalive never comes, never a measure of speed."""
-
-
-class Arrivals:
-    """A byte peer in front of the simulator that notes when each request arrives."""
-
-    def __init__(self, peer: BytePeer) -> None:
-        self.peer = peer
-        self._decoder = FrameDecoder()
-        self.times: list[tuple[float, str]] = []
-
-    def feed(self, data: bytes, now: float) -> None:
-        for event in self._decoder.feed(data):
-            if isinstance(event, Packet) and event.data[:1] == b"\xff":
-                self.times.append((now, event.data[1:3].decode()))
-        self.peer.feed(data, now)
-
-    @property
-    def codes(self) -> list[str]:
-        """The requests' codes, in the order they arrived."""
-        return [code for _, code in self.times]
-
-    def output(self, now: float) -> bytes:
-        return self.peer.output(now)
-
-    def next_deadline(self) -> float | None:
-        return self.peer.next_deadline()
-
-    def keepalive_gaps(self) -> list[float]:
-        """Gaps from BE to the first BF and between BFs, up to BG (real seconds)."""
-        times = [t for t, code in self.times if code in ("BE", "BF")]
-        return [b - a for a, b in itertools.pairwise(times)]
-
-    def count(self, code: str) -> int:
-        return sum(1 for _, c in self.times if c == code)
-
-
-class SimulatedClock:
-    """``time.monotonic`` for the jog's keepalive schedule, moved only by :meth:`advance`."""
-
-    def __init__(self) -> None:
-        self.now = 1000.0
-        self.reads = 0
-
-    def monotonic(self) -> float:
-        self.reads += 1
-        return self.now
-
-    def advance(self, seconds: float) -> None:
-        self.now += seconds
-
-
-@pytest.fixture
-def clock(monkeypatch: pytest.MonkeyPatch) -> SimulatedClock:
-    """The jog module's clock, simulated. The simulator's jog watchdog (500 ms in real seconds)
-    is set out of reach: real gaps mean nothing on a simulated schedule (bench.jog times them)."""
-    simulated = SimulatedClock()
-    monkeypatch.setattr(jog_module, "time", SimpleNamespace(monotonic=simulated.monotonic))
-    monkeypatch.setattr(controller_module, "JOG_WATCHDOG", 3600.0)
-    return simulated
 
 
 @pytest.fixture
 def controller() -> VirtualController:
     return VirtualController(sim_config(speedup=5.0))
-
-
-def wait_for(condition: Callable[[], bool], what: str) -> None:
-    """Block until ``condition()`` holds (GIVE_UP real seconds: it never will, a failure)."""
-    give_up = time.monotonic() + GIVE_UP
-    while not condition():
-        assert time.monotonic() < give_up, f"never: {what}"
-        time.sleep(0.002)
 
 
 def one_keepalive_per_interval(arrivals: Arrivals, clock: SimulatedClock) -> None:
@@ -141,7 +64,7 @@ def busy(client: Client, stop: threading.Event) -> None:
 
 @pytest.mark.parametrize("line", ["memory", "tcp"])
 def test_one_keepalive_per_interval_while_other_threads_use_the_client(
-    controller: VirtualController, clock: SimulatedClock, line: str
+    controller: VirtualController, jog_clock: SimulatedClock, line: str
 ) -> None:
     arrivals = Arrivals(controller)
     server = SimServer(arrivals).start() if line == "tcp" else None
@@ -154,7 +77,7 @@ def test_one_keepalive_per_interval_while_other_threads_use_the_client(
                 worker.start()
             try:
                 with client.jog(1, 1, "+") as jog:
-                    one_keepalive_per_interval(arrivals, clock)
+                    one_keepalive_per_interval(arrivals, jog_clock)
             finally:
                 stop.set()
                 for worker in workers:
@@ -170,7 +93,7 @@ def test_one_keepalive_per_interval_while_other_threads_use_the_client(
 
 
 def test_async_one_keepalive_per_interval_while_other_tasks_use_the_client(
-    controller: VirtualController, clock: SimulatedClock
+    controller: VirtualController, jog_clock: SimulatedClock
 ) -> None:
     arrivals = Arrivals(controller)
 
@@ -185,7 +108,7 @@ def test_async_one_keepalive_per_interval_while_other_tasks_use_the_client(
 
             tasks = [asyncio.create_task(busy_task()) for _ in range(3)]
             async with client.jog(1, 1, "+") as jog:
-                await asyncio.to_thread(one_keepalive_per_interval, arrivals, clock)
+                await asyncio.to_thread(one_keepalive_per_interval, arrivals, jog_clock)
             for task in tasks:
                 task.cancel()
             await asyncio.gather(*tasks, return_exceptions=True)
@@ -270,7 +193,7 @@ def keepalive_goes_first(
 
 
 def test_a_due_keepalive_goes_before_the_other_threads_waiting(
-    controller: VirtualController, clock: SimulatedClock
+    controller: VirtualController, jog_clock: SimulatedClock
 ) -> None:
     arrivals = Arrivals(controller)
     gate = Gate(arrivals)
@@ -281,7 +204,7 @@ def test_a_due_keepalive_goes_before_the_other_threads_waiting(
             with client.jog(1, 1, "+") as jog:
                 for worker in workers:
                     worker.start()
-                keepalive_goes_first(gate, arrivals, clock, client._lock)
+                keepalive_goes_first(gate, arrivals, jog_clock, client._lock)
         finally:
             stop.set()
             for worker in workers:
@@ -290,7 +213,7 @@ def test_a_due_keepalive_goes_before_the_other_threads_waiting(
 
 
 def test_async_a_due_keepalive_goes_before_the_other_tasks_waiting(
-    controller: VirtualController, clock: SimulatedClock
+    controller: VirtualController, jog_clock: SimulatedClock
 ) -> None:
     arrivals = Arrivals(controller)
     gate = Gate(arrivals)
@@ -308,7 +231,7 @@ def test_async_a_due_keepalive_goes_before_the_other_tasks_waiting(
                 tasks = [asyncio.create_task(busy_task()) for _ in range(3)]
                 try:
                     await asyncio.to_thread(
-                        keepalive_goes_first, gate, arrivals, clock, client._lock
+                        keepalive_goes_first, gate, arrivals, jog_clock, client._lock
                     )
                 finally:
                     for task in tasks:
@@ -386,7 +309,13 @@ with client.jog(1, 1, "+"):
 
 
 @pytest.fixture
-def served(controller: VirtualController) -> Iterator[tuple[VirtualController, SimServer]]:
+def served(
+    controller: VirtualController, monkeypatch: pytest.MonkeyPatch
+) -> Iterator[tuple[VirtualController, SimServer]]:
+    """The simulator served here for a child process. Its jog watchdog (500 ms, real seconds)
+    is set out of reach: a child started on a loaded machine may send its first BF late, and
+    what these tests check is how the jog ends, not the watchdog."""
+    monkeypatch.setattr(controller_module, "JOG_WATCHDOG", 3600.0)
     with SimServer(controller) as server:
         yield controller, server
 

@@ -1,6 +1,10 @@
 """The jog's dead-man's switch (``held_until``): once the time it gives has passed, the keepalive
 itself stops sending BF and sends BG, so a jog ends even when the code that should end it hangs
-(the jog pad's screen write blocked by Ctrl-S). Without a switch a jog runs until stopped."""
+(the jog pad's screen write blocked by Ctrl-S). Without a switch a jog runs until stopped.
+
+Where the schedule matters (a BF before the hold passes, BG at the hold and not an interval
+later) the jog runs on a simulated clock that the test moves; elsewhere the test waits for what
+it needs (the switch letting go) instead of sleeping for it."""
 
 from __future__ import annotations
 
@@ -18,7 +22,7 @@ from robostar.sim import VirtualController
 from robostar.transport import AsyncPeerTransport, PeerTransport
 
 from .conftest import sim_config
-from .test_jog import Arrivals
+from .jog_fakes import INTERVAL, INTERVALS, Arrivals, SimulatedClock, wait_for
 
 pytestmark = pytest.mark.timeout(60)
 
@@ -28,27 +32,35 @@ def controller() -> VirtualController:
     return VirtualController(sim_config(speedup=5.0))
 
 
-def _after(arrivals: Arrivals, start: float, code: str) -> list[float]:
-    return [t - start for t, c in arrivals.times if c == code and t >= start]
+HOLD = 0.3
+"""Simulated seconds a jog is held: after one keepalive interval, before the second."""
+
+
+def past_the_hold(arrivals: Arrivals, clock: SimulatedClock, jog: Jog | AsyncJog) -> None:
+    """Move the clock to a BF, then to the end of the hold, between two keepalives: the switch
+    lets go there, not an interval later, and sends BG itself."""
+    wait_for(lambda: clock.reads > 0, "the keepalive's schedule")
+    clock.advance(INTERVAL)
+    wait_for(lambda: arrivals.count("BF") == 1, "the BF before the hold passes")
+    clock.advance(HOLD - INTERVAL)
+    wait_for(lambda: arrivals.count("BG") == 1, "the switch's BG")
+    assert jog.expired
+    assert arrivals.count("BF") == 1  # none once the switch let go
 
 
 def test_a_jog_whose_hold_passes_stops_itself_while_the_body_hangs(
-    controller: VirtualController,
+    controller: VirtualController, jog_clock: SimulatedClock
 ) -> None:
     arrivals = Arrivals(controller)
-    with Client(PeerTransport(arrivals), timeout=1.0) as client:
-        started = time.monotonic()
+    held = jog_clock.now + HOLD
+    with Client(PeerTransport(arrivals), timeout=1.0, keepalive=INTERVAL) as client:
         with client.jog(1, 1, "+") as jog:
-            jog.held_until = lambda: started + 0.3
-            time.sleep(1.2)  # the caller is stuck well past the hold: nobody stops the jog
-            assert jog.expired
+            jog.held_until = lambda: held
+            past_the_hold(arrivals, jog_clock, jog)  # the caller is stuck: nobody stops the jog
             assert not client.status()[0].running  # stopped before the block ends
         assert jog.error is None
-    bfs = _after(arrivals, started, "BF")
-    bgs = _after(arrivals, started, "BG")
-    assert len(bgs) == 2, bgs  # the switch's BG, then the block's own
-    assert bfs and max(bfs) < bgs[0], (bfs, bgs)  # no BF once the switch let go
-    assert 0.3 <= bgs[0] < 0.3 + 0.3, bgs  # at the deadline, well before the body ends
+    jog_codes = [code for code in arrivals.codes if code in ("BE", "BF", "BG")]
+    assert jog_codes == ["BE", "BF", "BG", "BG"]  # the switch's BG, then the block's own
 
 
 def test_a_switch_given_at_construction_is_kept(controller: VirtualController) -> None:
@@ -59,28 +71,28 @@ def test_a_switch_given_at_construction_is_kept(controller: VirtualController) -
             client._urgent_call, jog_start(1, 1, "+", "joint"), 0.2, held_until=lambda: started
         )
         with jog:
-            time.sleep(0.3)
-            assert jog.expired
+            wait_for(lambda: jog.expired, "the switch letting go")
         assert controller.executions["BG"] == 2
 
 
 def test_a_hold_that_keeps_being_extended_keeps_the_jog_alive(
-    controller: VirtualController,
+    controller: VirtualController, jog_clock: SimulatedClock
 ) -> None:
+    """Counted on a simulated clock, not timed: each interval a key repeat holds the jog 0.5 s
+    more, and each brings its BF; the switch never lets go."""
     arrivals = Arrivals(controller)
-    with Client(PeerTransport(arrivals), timeout=1.0) as client:
-        held = [time.monotonic() + 0.5]
+    with Client(PeerTransport(arrivals), timeout=1.0, keepalive=INTERVAL) as client:
+        held = [jog_clock.now + 0.5]
         with client.jog(1, 1, "+") as jog:
             jog.held_until = lambda: held[0]
-            end = time.monotonic() + 1.5
-            while time.monotonic() < end:  # key repeats, each holding it 0.5 s more
-                held[0] = time.monotonic() + 0.5
-                time.sleep(0.04)
+            wait_for(lambda: jog_clock.reads > 0, "the keepalive's schedule")
+            for sent in range(1, INTERVALS + 1):
+                held[0] = jog_clock.now + 0.5  # a key repeat
+                jog_clock.advance(INTERVAL)
+                wait_for(lambda n=sent: arrivals.count("BF") >= n, f"BF number {sent}")  # type: ignore[misc]
             assert not jog.expired
-            # still running after 1.5 s: the simulator's watchdog (500 ms without BF, as the
-            # manual's controller) saw every keepalive in time
             assert client.status()[0].running
-    assert arrivals.count("BF") >= 3
+    assert arrivals.count("BF") == INTERVALS
     assert arrivals.count("BG") == 1
 
 
@@ -90,29 +102,29 @@ def test_a_switch_that_fails_lets_go(controller: VirtualController) -> None:
 
     with Client(PeerTransport(controller), timeout=1.0) as client, client.jog(1, 1, "+") as jog:
         jog.held_until = broken
-        time.sleep(0.5)
-        assert jog.expired
+        wait_for(lambda: jog.expired, "the switch letting go")
         assert not client.status()[0].running
 
 
-def test_async_jog_honours_the_switch_too(controller: VirtualController) -> None:
+def test_async_jog_honours_the_switch_too(
+    controller: VirtualController, jog_clock: SimulatedClock
+) -> None:
     arrivals = Arrivals(controller)
+    held = jog_clock.now + HOLD
 
     async def main() -> None:
-        async with AsyncClient(AsyncPeerTransport(arrivals), timeout=1.0) as client:
-            started = time.monotonic()
+        transport = AsyncPeerTransport(arrivals)
+        async with AsyncClient(transport, timeout=1.0, keepalive=INTERVAL) as client:
             async with client.jog(1, 1, "+") as jog:
-                jog.held_until = lambda: started + 0.3
-                await asyncio.sleep(1.0)  # awaiting something else, past the hold
-                assert jog.expired
+                jog.held_until = lambda: held
+                # awaiting something else, past the hold
+                await asyncio.to_thread(past_the_hold, arrivals, jog_clock, jog)
                 assert not (await client.status())[0].running
             assert jog.error is None
-        bfs = _after(arrivals, started, "BF")
-        bgs = _after(arrivals, started, "BG")
-        assert bfs and bgs and max(bfs) < bgs[0], (bfs, bgs)
 
     asyncio.run(main())
-    assert arrivals.count("BG") == 2
+    jog_codes = [code for code in arrivals.codes if code in ("BE", "BF", "BG")]
+    assert jog_codes == ["BE", "BF", "BG", "BG"]
 
 
 def test_client_jog_takes_the_switch(controller: VirtualController) -> None:
@@ -121,9 +133,8 @@ def test_client_jog_takes_the_switch(controller: VirtualController) -> None:
     with Client(PeerTransport(arrivals), timeout=1.0) as client:
         started = time.monotonic()
         with client.jog(1, 1, "+", held_until=lambda: started + 0.3) as jog:
-            time.sleep(0.9)
-            assert jog.expired
-    assert _after(arrivals, started, "BG")
+            wait_for(lambda: jog.expired, "the switch letting go")
+    assert arrivals.count("BG") == 2
 
 
 def test_async_client_jog_takes_the_switch() -> None:
@@ -131,8 +142,7 @@ def test_async_client_jog_takes_the_switch() -> None:
         async with AsyncClient("sim://") as client:
             started = time.monotonic()
             async with client.jog(1, 1, "+", held_until=lambda: started + 0.3) as jog:
-                await asyncio.sleep(0.9)
-                assert jog.expired
+                await asyncio.to_thread(wait_for, lambda: jog.expired, "the switch letting go")
             assert not (await client.status())[0].running
 
     asyncio.run(main())

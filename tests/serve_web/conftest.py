@@ -13,7 +13,7 @@ import pytest
 
 pytest.importorskip("starlette", reason="the web face needs the 'web' extra")
 
-from web_harness import CHROMIUM, PASSWORDS, ROLES, Stack
+from web_harness import CHROMIUM, PASSWORDS, ROLES, Stack, login
 
 from robostar.commands.files import LINE_MAX
 from robostar.commands.job import MAX_STEP
@@ -103,6 +103,19 @@ def free_lease(request: pytest.FixtureRequest) -> Iterator[None]:
         holder = stack.line.lease.holder
         if holder is not None:
             stack.loop.call_soon_threadsafe(stack.line.lease.release, holder.who)
+
+
+@pytest.fixture
+def jog(stack: Stack) -> Iterator[Any]:
+    """The jog page's WebSocket, olga signed in (talk to it with ``web_harness.ask``)."""
+    from websockets.sync.client import connect
+
+    with httpx.Client(base_url=stack.url, timeout=10) as http:
+        token = login(http, "olga")
+        cookie = "; ".join(f"{k}={v}" for k, v in http.cookies.items())
+        url = stack.url.replace("http://", "ws://") + f"/line/cell1/jog/ws?csrf={token}"
+        with connect(url, additional_headers={"Origin": stack.url, "Cookie": cookie}) as socket:
+            yield socket
 
 
 @pytest.fixture

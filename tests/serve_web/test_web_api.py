@@ -16,14 +16,6 @@ from robostar.protocol.fields import FileName
 from robostar.types import CoordSystem
 
 
-def wait_for(check, timeout: float = 5.0) -> None:  # type: ignore[no-untyped-def]
-    end = time.monotonic() + timeout
-    while not check():
-        if time.monotonic() > end:
-            raise AssertionError("condition not met in time")
-        time.sleep(0.02)
-
-
 def test_pages_are_read_only_for_everyone(stack: Stack, client: httpx.Client) -> None:
     for path in ("/", "/line/cell1", "/line/cell1/files", "/line/cell1/jog", "/audit", "/health"):
         page = client.get(path)

@@ -7,20 +7,7 @@ import time
 from typing import Any
 from urllib.parse import urlsplit
 
-from web_harness import Stack, sign_in
-
-
-def expect(page: Any) -> Any:
-    from playwright.sync_api import expect as playwright_expect
-
-    return playwright_expect
-
-
-def wait_until(check: Any, timeout: float = 5.0) -> None:
-    end = time.monotonic() + timeout
-    while not check():
-        assert time.monotonic() < end, "condition not met in time"
-        time.sleep(0.02)
+from web_harness import Stack, confirm, expect, sign_in, wait_until
 
 
 def test_roles_decide_what_the_page_offers(page: Any, stack: Stack) -> None:
@@ -40,13 +27,13 @@ def test_roles_decide_what_the_page_offers(page: Any, stack: Stack) -> None:
 def test_a_lamp_follows_the_controller_live(page: Any, stack: Stack) -> None:
     page.goto("/line/cell1")
     lamp = page.locator('[data-key="cell1/ch2/status"] [data-field="servo_on"]').first
-    expect(page)(lamp).to_have_class("lamp servo_on off")
+    expect(lamp).to_have_class("lamp servo_on off")
     stack.in_sim(lambda c: setattr(c.model.channels[1], "servo", True))
     try:
-        expect(page)(lamp).to_have_class("lamp servo_on on", timeout=5_000)
+        expect(lamp).to_have_class("lamp servo_on on", timeout=5_000)
     finally:
         stack.in_sim(lambda c: setattr(c.model.channels[1], "servo", False))
-    expect(page)(lamp).to_have_class("lamp servo_on off", timeout=5_000)
+    expect(lamp).to_have_class("lamp servo_on off", timeout=5_000)
 
 
 def test_an_output_is_switched_after_confirmation(page: Any, stack: Stack) -> None:
@@ -54,11 +41,9 @@ def test_an_output_is_switched_after_confirmation(page: Any, stack: Stack) -> No
     page.goto("/line/cell1")
     contact = page.locator('button[data-action="output"][data-port="0"][data-contact="5"]')
     contact.click()
-    page.locator("#confirm").wait_for(state="visible")
-    assert "Switch output 0.5 ON?" in page.locator("#confirm-text").inner_text()
-    page.click("#confirm-ok")
+    confirm(page, "Switch output 0.5 ON?")
     wait_until(lambda: stack.in_sim(lambda c: c.model.outputs[0][5]))
-    expect(page)(contact).to_have_class("contact on", timeout=5_000)
+    expect(contact).to_have_class("contact on", timeout=5_000)
 
 
 def test_a_cancelled_confirmation_sends_nothing(page: Any, stack: Stack) -> None:
@@ -80,11 +65,11 @@ def test_a_jog_stops_when_the_keepalive_stops(page: Any, stack: Stack) -> None:
     stops_before = stack.in_sim(lambda c: c.executions["BG"])
     button = page.locator('.jog-btn[data-axis="1"][data-direction="+"]')
     button.dispatch_event("pointerdown")
-    expect(page)(page.locator("#jog-state")).to_contain_text("Moving", timeout=5_000)
+    expect(page.locator("#jog-state")).to_contain_text("Moving", timeout=5_000)
     page.evaluate(
         "window.robostarJog.stopKeepalive()"
     )  # a frozen page: no release, no more keepalives
-    expect(page)(page.locator("#jog-state")).to_contain_text("keepalives", timeout=5_000)
+    expect(page.locator("#jog-state")).to_contain_text("keepalives", timeout=5_000)
     assert stack.in_sim(lambda c: c.executions["BG"]) == stops_before + 1
     stack.in_sim(lambda c: setattr(c.model.channels[0], "servo", False))
 
@@ -99,7 +84,7 @@ def test_a_frozen_browser_does_not_slow_the_others(page: Any, stack: Stack) -> N
         contact = page.locator('[data-key="cell1/io/in/2"] [data-contact="7"]')
         for on in (True, False, True, False):  # the frozen reader's buffers fill meanwhile
             stack.in_sim(lambda c, on=on: c.model.set_input(2, 7, on))
-            expect(page)(contact).to_have_class(f"contact {'on' if on else 'off'}", timeout=5_000)
+            expect(contact).to_have_class(f"contact {'on' if on else 'off'}", timeout=5_000)
     finally:
         frozen.close()
 
@@ -112,8 +97,8 @@ def test_an_upload_is_previewed_then_written(page: Any, stack: Stack, tmp_path: 
     page.set_input_files("#upload-form input[type=file]", str(job))
     page.fill("#upload-form input[name=name]", "PICK.JOB")
     page.click("#upload-form button[type=submit]")
-    expect(page)(page.locator("#preview")).to_contain_text("MOVJ P0002")
+    expect(page.locator("#preview")).to_contain_text("MOVJ P0002")
     names = stack.in_sim(lambda c: [str(f.name) for f in c.model.channels[0].files])
     assert not any("PICK" in name for name in names)
     page.click("#confirm-upload")
-    expect(page)(page.locator("table.files")).to_contain_text("PICK.JOB")
+    expect(page.locator("table.files")).to_contain_text("PICK.JOB")

@@ -5,12 +5,11 @@ exactly one step, and "teach here" stores the position reached as a point of a P
 from __future__ import annotations
 
 import json
-import time
 from collections.abc import Iterator
 from typing import Any
 
 import pytest
-from web_harness import Stack, sign_in
+from web_harness import Stack, confirm, expect, sign_in, wait_until
 
 from robostar.client.sync import Client
 from robostar.commands.files import DownloadFile
@@ -29,19 +28,6 @@ def servo_on(stack: Stack) -> Iterator[None]:
     stack.in_sim(lambda c: setattr(c.model.channels[0], "origin", origin))
 
 
-def expect() -> Any:
-    from playwright.sync_api import expect as playwright_expect
-
-    return playwright_expect
-
-
-def wait_until(check: Any, timeout: float = 5.0) -> None:
-    end = time.monotonic() + timeout
-    while not check():
-        assert time.monotonic() < end, "condition not met in time"
-        time.sleep(0.02)
-
-
 def joints(stack: Stack, channel: int = 1) -> tuple[float, ...]:
     return tuple(stack.in_sim(lambda c: c.model.channels[channel - 1].joints))
 
@@ -54,12 +40,12 @@ def test_the_pad_offers_the_channels_own_axes(page: Any, stack: Stack) -> None:
     sign_in(page, "olga")
     page.goto("/line/cell1/jog")
     # channel 1: a 4-axis SCARA; channel 2: a 2-axis cartesian robot
-    expect()(page.locator(".jog-axis:visible")).to_have_count(4)
+    expect(page.locator(".jog-axis:visible")).to_have_count(4)
     assert visible_axes(page) == ["J1 (°)", "J2 (°)", "Z (mm)", "R (°)"]
     page.select_option("#jog-motion", "linear")
     assert visible_axes(page) == ["X (mm)", "Y (mm)", "Z (mm)", "R (°)"]
     page.select_option("#jog-channel", "2")
-    expect()(page.locator(".jog-axis:visible")).to_have_count(2)
+    expect(page.locator(".jog-axis:visible")).to_have_count(2)
     assert visible_axes(page) == ["X (mm)", "Y (mm)"]
 
 
@@ -69,21 +55,21 @@ def test_the_position_panel_follows_a_jog(page: Any, stack: Stack, servo_on: Non
     cell = page.locator(
         'table.position[data-channel="1"] [data-key="cell1/ch1/angles"][data-axis="1"]'
     )
-    expect()(cell).not_to_have_text("—")
+    expect(cell).not_to_have_text("—")
     before = float(cell.inner_text())
     button = page.locator('.jog-btn[data-axis="1"][data-direction="+"]')
     button.dispatch_event("pointerdown")
-    expect()(page.locator("#jog-state")).to_contain_text("Moving")
+    expect(page.locator("#jog-state")).to_contain_text("Moving")
     wait_until(lambda: float(cell.inner_text()) > before + 1.0)  # updated while moving
     # the position's age is shown once the poller's XY read has come (it may come after AC's)
     age = page.locator('[data-age-of="cell1/ch1/position"]')
     wait_until(lambda: "s ago" in age.inner_text())
     button.dispatch_event("pointerup")
-    expect()(page.locator("#jog-state")).to_contain_text("Stopped (released)")
+    expect(page.locator("#jog-state")).to_contain_text("Stopped (released)")
     wait_until(lambda: not stack.in_sim(lambda c: c.model.channels[0].moving))
     stopped_at = joints(stack)[0]
     # the panel settles on where the arm stopped
-    expect()(cell).to_have_text(f"{stopped_at:.3f}")
+    expect(cell).to_have_text(f"{stopped_at:.3f}")
     # the audit: the jog in one summary with how far, and no keepalive entries
     wait_until(lambda: "jog channel 1 axis 1 +" in stack.audit_path.read_text())
     entries = [json.loads(text) for text in stack.audit_path.read_text().splitlines()]
@@ -99,7 +85,7 @@ def test_inching_moves_by_exactly_one_step(page: Any, stack: Stack, servo_on: No
     start = joints(stack)
     moves_before = stack.in_sim(lambda c: c.executions["BD"])
     page.locator('.jog-btn[data-axis="3"][data-direction="+"]').dispatch_event("pointerdown")
-    expect()(page.locator("#jog-state")).to_contain_text("Moved axis 3 by +1")
+    expect(page.locator("#jog-state")).to_contain_text("Moved axis 3 by +1")
     wait_until(lambda: not stack.in_sim(lambda c: c.model.channels[0].moving))
     after = joints(stack)
     assert stack.in_sim(lambda c: c.executions["BD"]) == moves_before + 1  # one BD per press
@@ -107,7 +93,7 @@ def test_inching_moves_by_exactly_one_step(page: Any, stack: Stack, servo_on: No
     assert after[:2] == pytest.approx(start[:2]) and after[3] == pytest.approx(start[3])
     page.keyboard.press("3")  # the 0.1 step, from the keyboard
     page.keyboard.press("a")  # axis 1 -
-    expect()(page.locator("#jog-state")).to_contain_text("Moved axis 1 by -0.1")
+    expect(page.locator("#jog-state")).to_contain_text("Moved axis 1 by -0.1")
     wait_until(lambda: not stack.in_sim(lambda c: c.model.channels[0].moving))
     assert joints(stack)[0] == pytest.approx(after[0] - 0.1, abs=1e-6)
 
@@ -117,13 +103,11 @@ def test_teach_here_writes_the_point(page: Any, stack: Stack, servo_on: None) ->
     page.goto("/line/cell1/jog")
     page.fill("#teach-file", "TAUT.PNT")
     page.fill("#teach-number", "7")
-    expect()(page.locator("#teach-btn")).to_have_text("Teach here as point 7")
+    expect(page.locator("#teach-btn")).to_have_text("Teach here as point 7")
     here = joints(stack)
     page.click("#teach-btn")
-    page.locator("#confirm").wait_for(state="visible")
-    assert "point 7 of TAUT.PNT" in page.locator("#confirm-text").inner_text()
-    page.click("#confirm-ok")
-    expect()(page.locator("#toast")).to_contain_text("Point 7 of TAUT.PNT")
+    confirm(page, "point 7 of TAUT.PNT")
+    expect(page.locator("#toast")).to_contain_text("Point 7 of TAUT.PNT")
     with Client(stack.sim.url) as n1:  # read back through the N1 protocol
         content = n1.execute(DownloadFile(1, "TAUT.PNT", CoordSystem.ANGLE))
     assert isinstance(content, PointFile)

@@ -3,29 +3,9 @@ the channel's JOB files (by name and number), a step in step mode and a stop, ea
 
 from __future__ import annotations
 
-import time
 from typing import Any
 
-from web_harness import Stack, sign_in
-
-
-def expect() -> Any:
-    from playwright.sync_api import expect as playwright_expect
-
-    return playwright_expect
-
-
-def wait_until(check: Any, timeout: float = 10.0) -> None:
-    end = time.monotonic() + timeout
-    while not check():
-        assert time.monotonic() < end, "condition not met in time"
-        time.sleep(0.02)
-
-
-def confirm(page: Any, text: str) -> None:
-    page.locator("#confirm").wait_for(state="visible")
-    assert text in page.locator("#confirm-text").inner_text()
-    page.click("#confirm-ok")
+from web_harness import Stack, confirm, expect, sign_in, wait_until
 
 
 def test_home_then_select_a_job_and_step_it(page: Any, stack: Stack) -> None:
@@ -41,12 +21,12 @@ def test_home_then_select_a_job_and_step_it(page: Any, stack: Stack) -> None:
 
     select = card.locator(".job-select")
     select.focus()
-    expect()(select.locator("option", has_text="1: DEMO.JOB")).to_have_count(1)
+    expect(select.locator("option", has_text="1: DEMO.JOB")).to_have_count(1)
     select.select_option("DEMO.JOB")
     card.locator('button[data-action="job_select"]').click()
     confirm(page, "Select DEMO.JOB on channel 1?")
     wait_until(lambda: str(stack.in_sim(lambda c: c.model.channels[0].job_name)) == "DEMO.JOB")
-    expect()(card.locator('[data-key="cell1/ch1/job"]')).to_contain_text("DEMO")
+    expect(card.locator('[data-key="cell1/ch1/job"]')).to_contain_text("DEMO")
 
     card.locator('button[data-action="job_step"]').click()
     confirm(page, "Run one step")
@@ -56,7 +36,7 @@ def test_home_then_select_a_job_and_step_it(page: Any, stack: Stack) -> None:
     wait_until(lambda: not stack.in_sim(lambda c: c.model.channels[0].running))
     card.locator('button[data-action="job_auto"]').click()
     confirm(page, "auto mode")
-    expect()(page.locator("#toast")).to_contain_text("job_auto: done")
+    expect(page.locator("#toast")).to_contain_text("job_auto: done")
     entries = stack.audit_path.read_text(encoding="utf-8")
     assert '"who": "olga"' in entries and "SelectJob" in entries and "Home" in entries
     stack.in_sim(lambda c: setattr(c.model.channels[0], "servo", False))

@@ -5,33 +5,11 @@ still in the log, in the line's own entry."""
 from __future__ import annotations
 
 import json
-import time
-from collections.abc import Iterator
 from typing import Any
 
-import httpx
-import pytest
-from web_harness import Stack, login
+from web_harness import Stack, ask, wait_until
 
 from robostar.serve.lease import Who
-
-
-@pytest.fixture
-def jog(stack: Stack) -> Iterator[Any]:
-    from websockets.sync.client import connect
-
-    with httpx.Client(base_url=stack.url, timeout=10) as http:
-        token = login(http, "olga")
-        cookie = "; ".join(f"{k}={v}" for k, v in http.cookies.items())
-        url = stack.url.replace("http://", "ws://") + f"/line/cell1/jog/ws?csrf={token}"
-        with connect(url, additional_headers={"Origin": stack.url, "Cookie": cookie}) as socket:
-            yield socket
-
-
-def ask(socket: Any, message: dict[str, Any]) -> dict[str, Any]:
-    socket.send(json.dumps(message))
-    answer: dict[str, Any] = json.loads(socket.recv(timeout=10))
-    return answer
 
 
 def olga_entries(stack: Stack) -> list[dict[str, Any]]:
@@ -41,13 +19,11 @@ def olga_entries(stack: Stack) -> list[dict[str, Any]]:
 
 def summarized(stack: Stack) -> list[dict[str, Any]]:
     """Olga's entries once the jog's summary is written (just after the page is told)."""
-    deadline = time.monotonic() + 10.0
-    while time.monotonic() < deadline:
-        entries = olga_entries(stack)
-        if any(e["what"].startswith("jog channel") for e in entries):
-            return entries
-        time.sleep(0.02)
-    raise AssertionError("no jog summary in the audit log")
+    wait_until(
+        lambda: any(e["what"].startswith("jog channel") for e in olga_entries(stack)),
+        what="the jog's summary in the audit log",
+    )
+    return olga_entries(stack)
 
 
 def test_a_jog_is_one_entry(stack: Stack, jog: Any) -> None:

@@ -4,31 +4,10 @@ engineer role, a confirmation or a point file are refused before anything reache
 
 from __future__ import annotations
 
-import json
-from collections.abc import Iterator
 from typing import Any
 
 import httpx
-import pytest
-from web_harness import Stack, login
-
-
-@pytest.fixture
-def jog(stack: Stack) -> Iterator[Any]:
-    from websockets.sync.client import connect
-
-    with httpx.Client(base_url=stack.url, timeout=10) as http:
-        token = login(http, "olga")
-        cookie = "; ".join(f"{k}={v}" for k, v in http.cookies.items())
-        url = stack.url.replace("http://", "ws://") + f"/line/cell1/jog/ws?csrf={token}"
-        with connect(url, additional_headers={"Origin": stack.url, "Cookie": cookie}) as socket:
-            yield socket
-
-
-def ask(socket: Any, message: dict[str, Any]) -> dict[str, Any]:
-    socket.send(json.dumps(message))
-    answer: dict[str, Any] = json.loads(socket.recv(timeout=10))
-    return answer
+from web_harness import Stack, ask, login
 
 
 def test_bad_inches_are_refused_before_the_wire(stack: Stack, jog: Any) -> None:

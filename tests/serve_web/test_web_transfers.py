@@ -7,13 +7,12 @@ from __future__ import annotations
 
 import io
 import json
-import time
 import zipfile
 from concurrent.futures import ThreadPoolExecutor
 
 import httpx
 import pytest
-from web_harness import Stack, login
+from web_harness import Stack, login, wait_until
 
 TRANSFERS = (
     "/line/cell1/backup.zip",
@@ -63,10 +62,7 @@ def test_one_transfer_at_a_time_per_line(stack: Stack) -> None:
         login(second, "olga")
         with stack.sim.lock:  # the simulator answers nothing while this is held
             backup = pool.submit(first.get, "/line/cell1/backup.zip")
-            deadline = time.monotonic() + 5
-            while "cell1" not in transferring:
-                assert time.monotonic() < deadline, "the backup did not start"
-                time.sleep(0.01)
+            wait_until(lambda: "cell1" in transferring, what="the backup's start")
             answers = [second.get(path) for path in TRANSFERS]
         assert [a.status_code for a in answers] == [429, 429, 429]
         assert "a backup or file download is already running" in answers[0].json()["error"]

@@ -11,8 +11,10 @@ simulator's model (holding the simulator host's lock) and read back what the con
 from __future__ import annotations
 
 import asyncio
+import json
 import re
 import shutil
+import time
 from collections.abc import Callable
 from concurrent.futures import Future
 from dataclasses import dataclass
@@ -69,6 +71,29 @@ class Stack:
         return result
 
 
+def wait_until(check: Callable[[], object], timeout: float = 10.0, what: str = "") -> None:
+    """Wait for ``check()`` to hold, polled (``timeout`` only ends a wait that would fail)."""
+    end = time.monotonic() + timeout
+    while not check():
+        assert time.monotonic() < end, f"never: {what or 'the condition'}"
+        time.sleep(0.02)
+
+
+def expect(target: Any) -> Any:
+    """Playwright's ``expect(target)``, its waiting assertions (imported here, not at the top:
+    the HTTP tests run without Playwright)."""
+    from playwright.sync_api import expect as playwright_expect
+
+    return playwright_expect(target)
+
+
+def confirm(page: Any, text: str) -> None:
+    """Answer the dashboard's confirmation dialog with OK, once it says ``text``."""
+    page.locator("#confirm").wait_for(state="visible")
+    assert text in page.locator("#confirm-text").inner_text()
+    page.click("#confirm-ok")
+
+
 def sign_in(page: Any, user: str) -> None:
     """Sign ``user`` in through the dashboard's login form in a browser page."""
     page.goto("/login")
@@ -89,6 +114,13 @@ def login(client: httpx.Client, user: str) -> str:
     )
     assert answer.status_code == 303, answer.text
     return csrf_of(client.get("/").text)
+
+
+def ask(socket: Any, message: dict[str, Any]) -> dict[str, Any]:
+    """Send ``message`` on the jog socket; its answer."""
+    socket.send(json.dumps(message))
+    answer: dict[str, Any] = json.loads(socket.recv(timeout=10))
+    return answer
 
 
 def csrf_of(html: str) -> str:

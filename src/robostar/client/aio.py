@@ -200,13 +200,11 @@ class AsyncClient(AsyncOperations, ClientBase):
         except BaseException as exc:
             # A cancelled task, Ctrl-C, a callback's error: end the exchange with RST.
             answered = exchange.done and exchange.answer() is not None
-            exchange.abort(clock())
+            out = self._abort_output(exchange)
             if isinstance(exc, asyncio.CancelledError):  # it propagates, with a note
                 note_cancelled(exc, command, written, answered=answered)
-            out = exchange.output()
-            if out and transport.is_open:
+            if out:
                 try:
-                    self._traced_sent(out)
                     await transport.write(out)
                 except PortError:
                     self._link = self._new_link()
@@ -215,7 +213,6 @@ class AsyncClient(AsyncOperations, ClientBase):
     async def _drain(self, first: bytes | None = None) -> None:
         """Hand stray input to the idle link before a request (it ACKs a resent answer).
         ``first``: the first read(0)'s bytes when the caller has read them (None: not read)."""
-        link = self._link
         for _ in range(DRAIN_READS):
             if first is None:
                 data = await self.transport.read(0.0)
@@ -223,11 +220,9 @@ class AsyncClient(AsyncOperations, ClientBase):
                 data, first = first, None
             if not data:
                 break
-            self._traced_received(data)
-            link.receive_data(data, time.monotonic())
-        out = link.data_to_send()
+            self._stray_input(data)
+        out = self._link_output()
         if out:
-            self._traced_sent(out)
             await self.transport.write(out)
 
     # -- jogging ---------------------------------------------------------------------------

@@ -4,11 +4,13 @@ client performs its own way."""
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
 from typing import Any
 
 from robostar.client import args
 from robostar.client.driver import FENCES, Policy
+from robostar.client.exchange import Exchange
 from robostar.client.surface import PlanHelpers
 from robostar.client.trace import TraceTarget, WireTrace
 from robostar.commands.base import Command
@@ -125,6 +127,29 @@ class ClientBase(PlanHelpers):
         if written and command.CHANGES_STATE:
             return OutcomeUnknownError(command.CODE, f"the line was lost: {exc}")
         return exc
+
+    # -- the line's sans-IO steps both clients take around an exchange ------------------------
+    def _stray_input(self, data: bytes) -> None:
+        """Hand input read between exchanges to the idle link (it ACKs a resent answer)."""
+        self._traced_received(data)
+        self._link.receive_data(data, time.monotonic())
+
+    def _link_output(self) -> bytes:
+        """What the idle link has to send now (b"": nothing), traced."""
+        out = self._link.data_to_send()
+        if out:
+            self._traced_sent(out)
+        return out
+
+    def _abort_output(self, exchange: Exchange) -> bytes:
+        """End ``exchange`` with RST (Ctrl-C, a cancelled task, a callback's error): the bytes
+        to write, traced; b"" when there are none or the line is closed."""
+        exchange.abort(time.monotonic())
+        out = exchange.output()
+        if not out or not self.transport.is_open:
+            return b""
+        self._traced_sent(out)
+        return out
 
     def _traced_sent(self, data: bytes) -> None:
         if self._trace is not None:

@@ -194,11 +194,9 @@ class Client(SyncOperations, ClientBase):
             raise self._line_lost(command, exc, written) from exc
         except BaseException:
             # Ctrl-C, a callback's error: end the exchange with RST.
-            exchange.abort(clock())
-            out = exchange.output()
-            if out and transport.is_open:
+            out = self._abort_output(exchange)
+            if out:
                 try:
-                    self._traced_sent(out)
                     transport.write(out)
                 except PortError:
                     self._link = self._new_link()
@@ -207,7 +205,6 @@ class Client(SyncOperations, ClientBase):
     def _drain(self, first: bytes | None = None) -> None:
         """Hand stray input to the idle link before a request (it ACKs a resent answer).
         ``first``: the first read(0)'s bytes when the caller has read them (None: not read)."""
-        link = self._link
         for _ in range(DRAIN_READS):
             if first is None:
                 data = self.transport.read(0.0)
@@ -215,11 +212,9 @@ class Client(SyncOperations, ClientBase):
                 data, first = first, None
             if not data:
                 break
-            self._traced_received(data)
-            link.receive_data(data, time.monotonic())
-        out = link.data_to_send()
+            self._stray_input(data)
+        out = self._link_output()
         if out:
-            self._traced_sent(out)
             self.transport.write(out)
 
     # -- jogging ---------------------------------------------------------------------------

@@ -6,30 +6,13 @@ import asyncio
 
 import pytest
 
-from robostar import AsyncClient, ChannelStatus
-from robostar.commands.status import ReadStatus
-from robostar.controller_role import Backend, ControllerSession, Refusal, Request
+from robostar import AsyncClient
+from robostar.controller_role import ControllerSession, Request
 from robostar.errors import FunctionFailedError, NotSupportedError
-from robostar.protocol.fields import FLAG_UNSUPPORTED
 from robostar.protocol.frame import encode_packet
 from robostar.serve.faces.n1.host import AsyncHost
 
-STATUS = (ChannelStatus(servo_on=True), ChannelStatus(), ChannelStatus(alarm=True))
-
-
-class LateStatus(Backend):
-    """Answers AA from a fixed status a little later, from the event loop; nothing else."""
-
-    def __init__(self) -> None:
-        self.closed: list[str] = []
-
-    def handle(self, request: Request) -> None:
-        if not isinstance(request.command, ReadStatus):
-            raise Refusal(f"{request.command.CODE} is not served here", FLAG_UNSUPPORTED)
-        asyncio.get_running_loop().call_later(0.01, request.answer, STATUS)
-
-    def session_closed(self, session: ControllerSession) -> None:
-        self.closed.append(session.name)
+from .host_fakes import STATUS, LateStatus
 
 
 def test_a_late_answer_reaches_each_of_many_clients() -> None:

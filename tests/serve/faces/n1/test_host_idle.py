@@ -11,32 +11,15 @@ import sys
 
 import pytest
 
-from robostar import AsyncClient, ChannelStatus
+from robostar import AsyncClient
 from robostar.commands.control import SetSpeed
-from robostar.commands.status import ReadStatus
-from robostar.controller_role import Backend, ControllerSession, Refusal, Request
+from robostar.controller_role import ControllerSession
 from robostar.controller_role.limits import IDLE_TIMEOUT, MAX_CLIENTS, HostLimits
 from robostar.errors import FunctionFailedError, OutcomeUnknownError, UsageError
-from robostar.protocol.fields import FLAG_UNSUPPORTED
 from robostar.serve import LineConfig, LineServer, ServeConfig
 from robostar.serve.faces.n1.host import AsyncHost
 
-STATUS = (ChannelStatus(servo_on=True), ChannelStatus(), ChannelStatus(alarm=True))
-
-
-class LateStatus(Backend):
-    """Answers AA a little later, from the event loop; refuses the rest."""
-
-    def __init__(self) -> None:
-        self.closed: list[str] = []
-
-    def handle(self, request: Request) -> None:
-        if not isinstance(request.command, ReadStatus):
-            raise Refusal(f"{request.command.CODE} is not served here", FLAG_UNSUPPORTED)
-        asyncio.get_running_loop().call_later(0.01, request.answer, STATUS)
-
-    def session_closed(self, session: ControllerSession) -> None:
-        self.closed.append(session.name)
+from .host_fakes import STATUS, LateStatus
 
 
 async def _closed(reader: asyncio.StreamReader, within: float) -> bool:

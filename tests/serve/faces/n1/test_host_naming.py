@@ -1,7 +1,8 @@
 """Naming a new N1 connection (who holds its socket: a read of ``/proc``) never holds up the
 server: the loop serves every other host meanwhile, bytes the new host sends before its name is
 known reach its session once it exists (under its final name), and a connection that closes or
-goes silent during the lookup, or the host closing, leaves no session behind."""
+goes silent during the lookup, or the host closing, leaves no session behind (and a lookup still
+queued for it is not made)."""
 
 from __future__ import annotations
 
@@ -13,10 +14,9 @@ from pathlib import Path
 
 import pytest
 
-from robostar import AsyncClient, ChannelStatus, Client
+from robostar import AsyncClient, Client
 from robostar.commands.control import SetSpeed
 from robostar.commands.status import ReadStatus
-from robostar.controller_role import Backend, ControllerSession, Request
 from robostar.errors import FunctionFailedError
 from robostar.protocol.frame import FrameDecoder, Packet, encode_packet
 from robostar.serve import LineConfig, LineServer, ServeConfig
@@ -24,13 +24,14 @@ from robostar.serve.faces.n1 import peer_owner
 from robostar.serve.faces.n1.host import AsyncHost
 from robostar.serve.faces.n1.peer_owner import PeerOwner
 
+from .host_fakes import STATUS, LateStatus
+
 pytestmark = pytest.mark.timeout(60)
 
 _ACK = b"\x06"
 GIVE_UP = 20.0
 """Seconds a blocked lookup or a test's wait gives up after: only ever reached when the loop is
 stalled (the test then fails), never a measure of speed."""
-STATUS = (ChannelStatus(servo_on=True), ChannelStatus(), ChannelStatus())
 
 
 class SlowLookup:
@@ -41,8 +42,11 @@ class SlowLookup:
         self.entered = threading.Event()
         self.release = threading.Event()
         self.released: list[bool] = []
+        self.ports: list[int] = []
+        """The peers' ports looked up, in order."""
 
     def __call__(self, host: str, port: int, proc: Path = Path("/proc")) -> PeerOwner | None:
+        self.ports.append(port)
         self.entered.set()
         self.released.append(self.release.wait(GIVE_UP))
         return PeerOwner("tester")
@@ -130,26 +134,12 @@ def test_the_server_answers_other_hosts_while_a_new_one_is_named(slow_lookup: Sl
     asyncio.run(main())
 
 
-class Status(Backend):
-    """Answers AA with a fixed status; records the sessions made."""
-
-    def __init__(self) -> None:
-        self.sessions: list[str] = []
-
-    def handle(self, request: Request) -> None:
-        request.answer(STATUS)
-
-    def session(self, name: str) -> ControllerSession:
-        self.sessions.append(name)
-        return ControllerSession(self, name=name)
-
-
 @pytest.mark.parametrize("closed_by", ["the host program", "the server", "idle_timeout"])
 def test_a_connection_gone_during_its_lookup_leaves_no_session(
     slow_lookup: SlowLookup, caplog: pytest.LogCaptureFixture, closed_by: str
 ) -> None:
     caplog.set_level(logging.DEBUG, logger="robostar.serve.faces.n1.host")
-    backend = Status()
+    backend = LateStatus()
 
     async def main() -> None:
         idle = 0.05 if closed_by == "idle_timeout" else None
@@ -167,7 +157,7 @@ def test_a_connection_gone_during_its_lookup_leaves_no_session(
             await _until(lambda: host.clients == 0, "the connection is gone")
             slow_lookup.release.set()
             await _until(lambda: "left before it was named" in caplog.text, "the lookup ended")
-            assert backend.sessions == []
+            assert backend.made == []
             writer.close()
         finally:
             await host.close()
@@ -176,7 +166,7 @@ def test_a_connection_gone_during_its_lookup_leaves_no_session(
 
 
 def test_a_connection_being_named_holds_its_slot(slow_lookup: SlowLookup) -> None:
-    backend = Status()
+    backend = LateStatus()
 
     async def main() -> None:
         async with AsyncHost(backend.session, max_clients=1) as host:
@@ -191,8 +181,36 @@ def test_a_connection_being_named_holds_its_slot(slow_lookup: SlowLookup) -> Non
                         await second.status()
                 slow_lookup.release.set()
                 assert await first_status == STATUS
-                assert len(backend.sessions) == 1
-                assert backend.sessions[0].endswith(" (tester)"), backend.sessions
+                assert len(backend.made) == 1
+                assert backend.made[0].endswith(" (tester)"), backend.made
+            finally:
+                await first.close()
+
+    asyncio.run(main())
+
+
+def test_a_lookup_queued_for_a_connection_gone_is_not_made(slow_lookup: SlowLookup) -> None:
+    backend = LateStatus()
+
+    async def main() -> None:
+        async with AsyncHost(backend.session) as host:
+            address = await host.start()
+            first = AsyncClient(f"tcp://{address[0]}:{address[1]}", timeout=GIVE_UP)
+            first_status = asyncio.ensure_future(first.status())
+            try:
+                assert await asyncio.to_thread(slow_lookup.entered.wait, GIVE_UP)
+                # the lookup thread is busy with the first: the second's lookup waits its turn
+                _, second = await asyncio.open_connection(*address)
+                await _until(lambda: host.clients == 2, "the second connection")
+                second.close()
+                await _until(lambda: host.clients == 1, "the second connection gone")
+                slow_lookup.release.set()
+                assert await first_status == STATUS
+                # a third connection is looked up after the first, the second never was
+                async with AsyncClient(f"tcp://{address[0]}:{address[1]}") as third:
+                    assert await third.status() == STATUS
+                assert len(slow_lookup.ports) == 2
+                assert len(backend.made) == 2
             finally:
                 await first.close()
 

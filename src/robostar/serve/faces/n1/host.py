@@ -30,6 +30,7 @@ peers it serves: ``allow_from`` (addresses and networks; loopback is always allo
 from __future__ import annotations
 
 import asyncio
+import concurrent.futures
 import contextlib
 import functools
 import logging
@@ -69,6 +70,19 @@ TURN_AWAY_IDLE = 1.0
 sends its request as soon as it connects, and its KD right after the refusal."""
 TURN_AWAY_MAX = 10.0
 """Seconds a connection past ``max_clients`` is kept at most, however busy it is."""
+_lookup_thread: concurrent.futures.ThreadPoolExecutor | None = None
+
+
+def _lookups() -> concurrent.futures.ThreadPoolExecutor:
+    """The one thread that looks connections' owners up, one after the other: a lookup is
+    Python code as much as system calls, so several at once would take the interpreter from
+    the event loop in turn (the rate limit bounds how many a second)."""
+    global _lookup_thread
+    if _lookup_thread is None:
+        _lookup_thread = concurrent.futures.ThreadPoolExecutor(1, "n1-peer-owner")
+    return _lookup_thread
+
+
 NAMING_BUFFER = 1 << 16
 """Bytes kept from a connection while its name is looked up; past this it is not read until
 its session exists (a host program sends one request, a few hundred bytes, then waits)."""
@@ -120,6 +134,7 @@ class _Connection(asyncio.Protocol):
         self._turned_away = False
         self._early: bytearray | None = None
         """Bytes received while the connection's name is looked up (None: not looking)."""
+        self._lookup: asyncio.Future[PeerOwner | None] | None = None
         self._lost = False
 
     def connection_made(self, transport: asyncio.BaseTransport) -> None:
@@ -165,8 +180,8 @@ class _Connection(asyncio.Protocol):
             self._open(peer_name(address, common_name=common_name))
             return
         self._early = bytearray()
-        lookup = self.loop.run_in_executor(None, peer_owner.find_owner, *due)
-        lookup.add_done_callback(functools.partial(self._named, address))
+        self._lookup = self.loop.run_in_executor(_lookups(), peer_owner.find_owner, *due)
+        self._lookup.add_done_callback(functools.partial(self._named, address))
 
     def _named(self, address: object, lookup: asyncio.Future[PeerOwner | None]) -> None:
         """The lookup ended: open the session under its name (unless the connection is gone)."""
@@ -295,6 +310,8 @@ class _Connection(asyncio.Protocol):
     def connection_lost(self, exc: Exception | None) -> None:
         self._lost = True
         self._early = None
+        if self._lookup is not None:
+            self._lookup.cancel()  # a lookup still queued is not made
         if self._timer is not None:
             self._timer.cancel()
         if self._idle_timer is not None:
