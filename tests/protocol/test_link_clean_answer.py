@@ -394,7 +394,8 @@ def test_the_usual_read_and_the_answer_handler_take_an_answer_in_the_same_step(
             assert all(framed for framed, _ in calls), read
             for _, got in calls:
                 if got is not None:
-                    assert events[-2:] == [AnswerReceived(got, 0x30, final=True), ExchangeComplete()]
+                    told = [AnswerReceived(got, 0x30, final=True), ExchangeComplete()]
+                    assert events[-2:] == told
 
 
 def test_a_clean_answer_behind_other_input_is_taken_by_the_same_step() -> None:
