@@ -70,3 +70,20 @@ def test_closing_bytes_end_a_begun_packet_as_a_corrupt_one(data: bytes) -> None:
     events = decoder.feed(tracker.closing_bytes())
     assert decoder.between_frames
     assert [type(event).__name__ for event in events] == ["CorruptPacket"]
+
+
+@given(st.lists(line_bytes, max_size=6))
+def test_the_decoder_frames_with_a_tracker_that_stands_where_a_lone_one_does(
+    reads: list[bytes],
+) -> None:
+    # The decoder runs on a FrameTracker of its own (one framing state machine): after any
+    # reads it stands where a tracker fed the same bytes stands, with the same XOR inside a
+    # packet (the LRC the decoder checks).
+    tracker, decoder = FrameTracker(), FrameDecoder()
+    for data in reads:
+        tracker.feed(data)
+        decoder.feed(data)
+        framing = decoder._framing
+        assert (framing.in_packet, framing.in_lrc) == (tracker.in_packet, tracker.in_lrc)
+        if tracker.in_packet or tracker.in_lrc:
+            assert framing.xor == tracker.xor

@@ -348,3 +348,67 @@ def test_a_poll_answered_alike_or_not_gives_each_read_its_own_packet() -> None:
             continue
         assert link.data_to_send() == bytes((ACK,))
         assert link.state is State.IDLE
+
+
+# -- one accept step ----------------------------------------------------------------------------
+def _spied(link: HostLink) -> list[tuple[bool, bytes | None]]:
+    """Record each call of ``link``'s accept step (receive_clean_answer) the answer handler
+    makes: whether it was given a framed Packet, and what it took."""
+    calls: list[tuple[bool, bytes | None]] = []
+    step = link.receive_clean_answer
+
+    def spy(data: Any, now: float) -> bytes | None:
+        taken = step(data, now)
+        calls.append((isinstance(data, Packet), taken))
+        return taken
+
+    link.receive_clean_answer = spy  # type: ignore[method-assign]
+    return calls
+
+
+@pytest.mark.parametrize("name", list(SETUPS))
+def test_the_usual_read_and_the_answer_handler_take_an_answer_in_the_same_step(
+    name: str,
+) -> None:
+    """What the usual read takes in one step, the answer handler takes through that same step
+    (its first branch, given the Packet the decoder framed), leaving the link as the read
+    does: the step decides for both, for every setup and every answer."""
+    setup = SETUPS[name]
+    for read in READS:
+        packet = lone_frame(read)
+        if packet is None:
+            continue
+        fast, general = setup(), setup()
+        now = fast._now + 0.05
+        calls = _spied(general)
+        taken = fast.receive_clean_answer(read, now)
+        events = general.receive_data(read, now)
+        del general.receive_clean_answer  # the spy
+        if taken is not None:
+            assert calls == [(True, packet)], read
+            assert events == [AnswerReceived(packet, 0x30, final=True), ExchangeComplete()]
+            assert _snapshot(fast) == _snapshot(general), read
+        else:
+            # Declined for the read (a frame begun before it, input held): the handler still
+            # asks the same step, with the packet the decoder framed, and tells what it took.
+            assert all(framed for framed, _ in calls), read
+            for _, got in calls:
+                if got is not None:
+                    told = [AnswerReceived(got, 0x30, final=True), ExchangeComplete()]
+                    assert events[-2:] == told
+
+
+def test_a_clean_answer_behind_other_input_is_taken_by_the_same_step() -> None:
+    """An OK answer the usual read cannot take at once (an ACK before it, the frame split
+    over two reads) ends the exchange through the same accept step, in the handler."""
+    answer = encode_packet(OK_ANSWER)
+    for reads in ([bytes((ACK,)) + answer], [answer[:3], answer[3:]], [b"x" + answer]):
+        link = _waiting(Shape.SINGLE)()
+        calls = _spied(link)
+        events = []
+        for read in reads:
+            assert link.receive_clean_answer(read, 10.1) is None
+            events += link.receive_data(read, 10.1)
+        assert calls[-1] == (True, OK_ANSWER)
+        assert events[-2:] == [AnswerReceived(OK_ANSWER, 0x30, final=True), ExchangeComplete()]
+        assert link.data_to_send() == bytes((ACK,)) and link.state is State.IDLE

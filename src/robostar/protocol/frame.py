@@ -158,12 +158,13 @@ class FramePart(enum.Enum):
 
 class FrameTracker:
     """Where a stream of bytes stands in the framing, and the LRC its packet's data call for,
-    without keeping the data: for those that pass bytes on rather than decode them (the
-    simulator's fault injection, the threaded host's record of a half-sent packet).
+    without keeping the data: the one framing state machine. :class:`FrameDecoder` runs on it
+    (and keeps the data and the 250-byte limit); so do those that pass bytes on rather than
+    decode them (the simulator's fault injection, the threaded host's record of a half-sent
+    packet).
 
-    The rule is :class:`FrameDecoder`'s: STX (re)starts a packet; inside one every byte but ETX
-    counts in the XOR; after ETX the next byte is the LRC whatever it is; between packets
-    nothing but STX matters. (The decoder keeps the data too, and the 250-byte limit.)
+    The rule: STX (re)starts a packet; inside one every byte but ETX counts in the XOR; after
+    ETX the next byte is the LRC whatever it is; between packets nothing but STX matters.
     """
 
     __slots__ = ("in_lrc", "in_packet", "xor")
@@ -192,30 +193,47 @@ class FrameTracker:
             self.xor ^= byte
         return FramePart.DATA
 
+    def fold(self, data: bytes, start: int, end: int) -> int:
+        """Inside a packet: take ``data[start:end]`` up to its first STX or ETX at once, its
+        data bytes folded into the XOR. Returns where that STX or ETX stands, taken as
+        :meth:`step` takes it (ETX: the LRC is next; STX: a new packet begins), or ``end``
+        when there is none (still inside the packet)."""
+        etx = data.find(b"\x03", start, end)
+        stx = data.find(b"\x02", start, end)
+        stop = end if etx < 0 else etx
+        if 0 <= stx < stop:
+            stop = stx
+        if stop > start:
+            self.xor ^= lrc(data[start:stop])
+        if stop != end:
+            if stop == stx:
+                self.xor = 0
+            else:
+                self.in_packet = False
+                self.in_lrc = True
+        return stop
+
     def feed(self, data: bytes) -> None:
         """Take a read whole: the same state as :meth:`step` over each byte, with the runs
-        between STX and ETX folded at once."""
+        between STX and ETX folded at once (:meth:`fold`)."""
         i = 0
         n = len(data)
+        if not (self.in_packet or self.in_lrc):
+            i = data.find(b"\x02")
+            if i < 0:
+                return
+            whole = _LONE_FRAME(data, i)
+            if whole is not None:
+                # The usual read: one whole packet (lone_frame's test), between packets after
+                # it as before it.
+                self.xor = lrc(whole.group(1))
+                return
         while i < n:
             if self.in_lrc:
                 self.in_lrc = False
                 i += 1
             elif self.in_packet:
-                etx = data.find(b"\x03", i)
-                stx = data.find(b"\x02", i)
-                stop = n if etx < 0 else etx
-                if 0 <= stx < stop:
-                    stop = stx
-                self.xor ^= lrc(data[i:stop])
-                if stop == n:
-                    return
-                if stop == stx:
-                    self.xor = 0
-                else:
-                    self.in_packet = False
-                    self.in_lrc = True
-                i = stop + 1
+                i = self.fold(data, i, n) + 1
             else:
                 stx = data.find(b"\x02", i)
                 if stx < 0:
@@ -246,6 +264,9 @@ _BYTES_TYPES = (bytes, bytearray, memoryview)
 
 
 class _State(enum.Enum):
+    """Where the decoder stands, in one word (:attr:`FrameDecoder._state`): its tracker's
+    place in the framing, and whether the frame open was already reported overlong."""
+
     HUNT = "hunt"  # between frames: control bytes count, anything else is line noise
     DATA = "data"  # inside a frame, collecting data up to ETX
     LRC = "lrc"  # ETX seen; the next byte is the LRC, whatever its value
@@ -260,13 +281,18 @@ class FrameDecoder:
     :attr:`discarded`. A frame runs from STX to the byte after ETX. A new STX inside a frame
     ends the old one as ``TRUNCATED``; a frame passing 250 bytes is reported ``TOO_LONG`` at once
     and skipped to its end.
+
+    The framing (where a frame begins and ends, and the XOR its LRC must match) is a
+    :class:`FrameTracker`'s; the decoder keeps the frame's data and the 250-byte limit.
     """
 
-    __slots__ = ("_buf", "_state", "between_frames", "discarded")
+    __slots__ = ("_buf", "_framing", "_overlong", "between_frames", "discarded")
 
     def __init__(self) -> None:
         self._buf = bytearray()
-        self._state = _State.HUNT
+        self._framing = FrameTracker()
+        self._overlong = False
+        """The frame open was reported TOO_LONG: its bytes are dropped up to its end."""
         self.between_frames = True
         """No frame is begun: the next byte is read as a frame's start, a control byte or
         noise. (Kept with the state, not computed: the usual read asks it every time.)"""
@@ -277,10 +303,20 @@ class FrameDecoder:
         """Bytes of an unfinished frame held for the next feed."""
         return len(self._buf)
 
+    @property
+    def _state(self) -> _State:
+        framing = self._framing
+        if framing.in_packet:
+            return _State.SKIP if self._overlong else _State.DATA
+        if framing.in_lrc:
+            return _State.SKIP_LRC if self._overlong else _State.LRC
+        return _State.HUNT
+
     def reset(self) -> None:
         """Forget any unfinished frame (after RST, or when the line is reopened)."""
         self._buf.clear()
-        self._state = _State.HUNT
+        self._framing.reset()
+        self._overlong = False
         self.between_frames = True
 
     def feed(self, data: bytes | bytearray | memoryview) -> list[FrameEvent]:
@@ -289,12 +325,12 @@ class FrameDecoder:
             raise FrameError(f"FrameDecoder.feed takes bytes, not {type(data).__name__}")
         view = bytes(data)
         n = len(view)
-        state = self._state
         events: list[FrameEvent] = []
         i = 0
-        if state is _State.HUNT:
+        if self.between_frames:
             # The usual read: control bytes (an ACK before the next request), then exactly
-            # one whole frame. The same events as the general loop below, in fewer steps.
+            # one whole frame. The same events as the general loop below, in fewer steps
+            # (and the framing between frames after it, as before it).
             while i < n and view[i] in _CONTROL_BYTES:
                 events.append(_CONTROL_EVENTS[view[i]])
                 i += 1
@@ -309,75 +345,68 @@ class FrameDecoder:
                     events.append(CorruptPacket(CorruptReason.BAD_LRC, view[i:]))
                 return events
         buf = self._buf
+        framing = self._framing
         while i < n:
-            if state is _State.HUNT:
-                # Fast path: find the next byte that matters.
-                byte = view[i]
-                i += 1
-                if byte == STX:
-                    buf.clear()
-                    state = _State.DATA
-                elif byte in _CONTROL_BYTES:
-                    events.append(_CONTROL_EVENTS[byte])
-                else:
-                    self.discarded += 1
-            elif state is _State.DATA:
-                # Copy a run of data bytes at once up to the next ETX or STX, but never past the
-                # byte that makes the frame too long: the verdict must not depend on how the
-                # bytes were split into reads.
-                etx = view.find(b"\x03", i)
-                stx = view.find(b"\x02", i)
-                stop = n if etx < 0 else etx
-                if 0 <= stx < stop:
-                    stop = stx
-                room = _MAX_DATA - len(buf)
-                if stop - i > room:
-                    buf += view[i : i + room + 1]
-                    i += room + 1
-                    events.append(CorruptPacket(CorruptReason.TOO_LONG, bytes((STX, *buf))))
-                    buf.clear()
-                    state = _State.SKIP
+            if framing.in_packet:
+                if self._overlong:
+                    # Reported already: drop its bytes up to its ETX (then its LRC byte), or
+                    # up to an STX, which begins the next frame.
+                    stop = framing.fold(view, i, n)
+                    if stop == n:
+                        self.discarded += n - i
+                        i = n
+                    elif framing.in_lrc:
+                        self.discarded += stop + 1 - i
+                        i = stop + 1
+                    else:
+                        self.discarded += stop - i
+                        self._overlong = False
+                        i = stop + 1
                     continue
+                # Take a run of data bytes at once up to the next ETX or STX, but never past
+                # the byte that makes the frame too long: the verdict must not depend on how
+                # the bytes were split into reads.
+                end = i + _MAX_DATA + 1 - len(buf)
+                if end > n:
+                    end = n
+                stop = framing.fold(view, i, end)
                 buf += view[i:stop]
-                i = stop
-                if stop == stx:
+                if stop == end:
+                    i = stop
+                    if len(buf) > _MAX_DATA:
+                        events.append(CorruptPacket(CorruptReason.TOO_LONG, bytes((STX, *buf))))
+                        buf.clear()
+                        self._overlong = True
+                elif framing.in_lrc:  # its ETX
+                    i = stop + 1
+                else:  # an STX: the frame was cut short, and the next one begins
                     events.append(CorruptPacket(CorruptReason.TRUNCATED, bytes((STX, *buf))))
                     buf.clear()
-                    i = stx + 1
-                elif stop == etx:
-                    i = etx + 1
-                    state = _State.LRC
-            elif state is _State.LRC:
+                    i = stop + 1
+            elif framing.in_lrc:
                 got = view[i]
                 i += 1
-                want = lrc(buf)
+                framing.step(got)
+                if self._overlong:
+                    self.discarded += 1
+                    self._overlong = False
+                    continue
+                want = framing.xor
                 if got == want or (want == 0 and got == ETX):
                     events.append(Packet(bytes(buf)))
                 else:
                     raw = bytes((STX, *buf, ETX, got))
                     events.append(CorruptPacket(CorruptReason.BAD_LRC, raw))
                 buf.clear()
-                state = _State.HUNT
-            elif state is _State.SKIP_LRC:
+            else:
+                byte = view[i]
                 i += 1
-                self.discarded += 1
-                state = _State.HUNT
-            else:  # SKIP
-                etx = view.find(b"\x03", i)
-                stx = view.find(b"\x02", i)
-                if stx >= 0 and (etx < 0 or stx < etx):
-                    self.discarded += stx - i
-                    i = stx + 1
+                if byte == STX:
+                    framing.step(byte)  # a frame begins
                     buf.clear()
-                    state = _State.DATA
-                elif etx >= 0:
-                    # Drop through ETX; the LRC byte after it goes in SKIP_LRC.
-                    self.discarded += etx + 1 - i
-                    i = etx + 1
-                    state = _State.SKIP_LRC
+                elif byte in _CONTROL_BYTES:
+                    events.append(_CONTROL_EVENTS[byte])
                 else:
-                    self.discarded += n - i
-                    i = n
-        self._state = state
-        self.between_frames = state is _State.HUNT
+                    self.discarded += 1
+        self.between_frames = not (framing.in_packet or framing.in_lrc)
         return events

@@ -1,10 +1,12 @@
-"""The clean-answer fast path: the usual read of a single exchange (one whole frame holding an OK
-answer) taken in one step, with the memo of the last read's framing."""
+"""The clean answer: an OK answer ending the SINGLE exchange waited on, accepted in one step
+that the usual read takes straight from the line, with the memo of the last read's framing,
+and that the answer handler (``HostLink._h_answer``) takes first for a packet the decoder
+framed (:meth:`CleanAnswer.receive_clean_answer`, for both)."""
 
 from __future__ import annotations
 
 from robostar.protocol.fields import FLAG_OK
-from robostar.protocol.frame import ACK, MAX_PACKET, lone_frame
+from robostar.protocol.frame import ACK, MAX_PACKET, Packet, lone_frame
 from robostar.protocol.link_base import _RESEND_SHARE
 from robostar.protocol.link_host_base import HostLinkBase
 from robostar.protocol.link_table import State
@@ -12,9 +14,9 @@ from robostar.protocol.packets import Shape
 
 
 class CleanAnswer(HostLinkBase):
-    """HostLink.receive_clean_answer."""
+    """HostLink.receive_clean_answer: the one accept step of a clean answer."""
 
-    def receive_clean_answer(self, data: bytes, now: float) -> bytes | None:
+    def receive_clean_answer(self, data: bytes | Packet, now: float) -> bytes | None:
         """The usual read of a single exchange, in one step: when ``data`` is exactly one
         whole frame with a good LRC (:func:`~robostar.protocol.frame.lone_frame`) holding an
         OK answer (flag 0x30; not one taken for the controller resending the answer ACKed
@@ -26,17 +28,34 @@ class CleanAnswer(HostLinkBase):
 
         Otherwise it returns None and has changed nothing: give the same bytes to
         :meth:`receive_data`, whose rules decide.
+
+        ``data`` may also be a :class:`~robostar.protocol.frame.Packet` the decoder framed,
+        taken in the order the line brought it: the answer handler's first step (it tells the
+        events when the packet is taken). One accept step for both, in one function, told
+        apart by the type the usual read tests anyway: the usual read pays for no second call.
         """
-        if (
+        if type(data) is not bytes:
+            if (
+                type(data) is not Packet
+                or self.state is not State.WAIT_ANSWER
+                or self.shape is not Shape.SINGLE
+                or self._stop_early
+            ):
+                return None  # a read of another type (bytearray, memoryview): the rules'
+            packet = data.data
+            if self._backlog and packet == self._last_received:
+                # A copy of the packet ACKed last with more held behind it: the handler's
+                # rules tell a repeat sent without waiting from a resend.
+                return None
+        elif (
             self.state is not State.WAIT_ANSWER
             or self.shape is not Shape.SINGLE
-            or type(data) is not bytes
             or self._backlog
             or not self.decoder.between_frames
             or self._stop_early
         ):
             return None
-        if data == self._clean_read:
+        elif data == self._clean_read:
             # The same bytes as the last clean answer (a poll answered alike): the same packet.
             packet = self._clean_packet
         else:
@@ -63,7 +82,8 @@ class CleanAnswer(HostLinkBase):
             or self._bytes + size > self._max_packets * MAX_PACKET
         ):
             return None
-        # _h_answer's steps for this packet, then _finish (in that order in _h_answer).
+        # Taken: the answer handler's steps for an OK answer ending a SINGLE exchange
+        # (_good_packet, the count, _ack), then _finish's.
         self._now = now
         self._corrupt = 0
         self._packets += 1
