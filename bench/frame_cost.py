@@ -11,9 +11,7 @@ where valgrind is missing.
 
 from __future__ import annotations
 
-import os
 import shutil
-import subprocess
 import sys
 from pathlib import Path
 
@@ -21,7 +19,7 @@ if __package__ in (None, ""):
     _root = Path(__file__).resolve().parent.parent
     sys.path[:0] = [str(_root), str(_root / "src")]
 
-from bench.procs import REPO
+from bench.profiles import callgrind_count
 
 __all__ = ["main"]
 
@@ -59,32 +57,7 @@ for piece in itertools.islice(itertools.cycle(pieces), reads):
 
 
 def _count(kind: str, who: str, reads: int) -> int:
-    done = subprocess.run(
-        [
-            "valgrind",
-            "--tool=callgrind",
-            "--callgrind-out-file=/dev/null",
-            sys.executable,
-            "-c",
-            _LOOP,
-            kind,
-            who,
-            str(reads),
-        ],
-        cwd=REPO,
-        env={
-            **os.environ,
-            "PYTHONPATH": os.pathsep.join((str(REPO), str(REPO / "src"))),
-            "PYTHONHASHSEED": "0",
-        },
-        capture_output=True,
-        text=True,
-        check=True,
-    )
-    for line in done.stderr.splitlines():
-        if "Collected :" in line:
-            return int(line.rsplit(":", 1)[1])
-    raise RuntimeError(f"callgrind gave no count:\n{done.stderr[-2000:]}")
+    return callgrind_count(_LOOP, kind, who, str(reads))
 
 
 def per_read(kind: str, who: str) -> float:

@@ -220,8 +220,9 @@ with Client(PeerTransport(CannedPeer(answer))) as c:
 """
 
 
-def _instructions_run(calls: int) -> int:
-    """Instructions callgrind counts for a process making ``calls`` in-memory status reads."""
+def callgrind_count(script: str, *args: str) -> int:
+    """Instructions callgrind counts for ``python -c script args...`` run from the repository
+    (the same hash seed every run, so the dictionaries' layout is the same)."""
     done = subprocess.run(
         [
             "valgrind",
@@ -229,14 +230,14 @@ def _instructions_run(calls: int) -> int:
             "--callgrind-out-file=/dev/null",
             sys.executable,
             "-c",
-            _STATUS_CALLS,
-            str(calls),
+            script,
+            *args,
         ],
         cwd=REPO,
         env={
             **os.environ,
             "PYTHONPATH": os.pathsep.join((str(REPO), str(REPO / "src"))),
-            "PYTHONHASHSEED": "0",  # the same dictionaries' layout in every run
+            "PYTHONHASHSEED": "0",
         },
         capture_output=True,
         text=True,
@@ -246,6 +247,11 @@ def _instructions_run(calls: int) -> int:
         if "Collected :" in line:
             return int(line.rsplit(":", 1)[1])
     raise RuntimeError(f"callgrind gave no count:\n{done.stderr[-2000:]}")
+
+
+def _instructions_run(calls: int) -> int:
+    """Instructions callgrind counts for a process making ``calls`` in-memory status reads."""
+    return callgrind_count(_STATUS_CALLS, str(calls))
 
 
 def instructions() -> str:
