@@ -63,6 +63,10 @@ class HistoryConfig:
     """Faults during the run (see :mod:`reliability.history_faults`)."""
     fault_every: float = 6.0
     """Seconds between the hangs and restarts, about."""
+    min_faults: int = 0
+    """With faults: the consumers go on past ``ops`` until the player has begun at least this
+    many hangs and restarts, so that a short run (a CI slice, on a fast machine) is never over
+    before its first fault."""
     stale_consumer: bool = False
     """Plant a fake: one consumer answers its reads from its own earlier answers (a stale
     cache), so that the checker is seen to catch it."""
@@ -363,6 +367,14 @@ def run_history(
         if config.faults:
             rig.faults_on()
             player = FaultPlayer(rig, config.seed, config.fault_every).start()
+            if config.min_faults:
+                faults = player
+
+                def more() -> bool:
+                    return faults.failure is None and sum(faults.begun.values()) < config.min_faults
+
+                for consumer in consumers:
+                    consumer.more = more
         for thread in threads:
             thread.start()
         next_report = 10_000

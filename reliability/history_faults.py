@@ -49,6 +49,8 @@ class FaultPlayer:
         self.rng = random.Random(seed * 31 + 5)
         self.every = every
         self.played: Counter[str] = Counter()
+        self.begun: Counter[str] = Counter()
+        """Faults begun (a hang counts in ``played`` only once over)."""
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="history-faults", daemon=True)
         self.failure: BaseException | None = None
@@ -65,9 +67,11 @@ class FaultPlayer:
         try:
             while not self._stop.wait(self.rng.uniform(0.5, 1.5) * self.every):
                 if self.rng.random() < 0.7:
+                    self.begun["hang"] += 1
                     self.target.hang(self.rng.uniform(1.0, 4.0))
                     self.played["hang"] += 1
                 else:
+                    self.begun["restart"] += 1
                     self.target.restart_sim()
                     self.played["restart"] += 1
         except BaseException as exc:

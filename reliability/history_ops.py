@@ -195,13 +195,17 @@ class _Consumer:
         self.ops: list[Op] = []
         self.stop = threading.Event()
         self.crash: BaseException | None = None
+        self.more: Callable[[], bool] = lambda: False
+        """Go on past ``count`` while this says so (the run's faults have not all begun)."""
 
     def run(self) -> None:
         try:
-            for seq in range(self.count):
+            seq = 0
+            while seq < self.count or self.more():
                 if self.stop.is_set():
                     return
                 self.one(seq, next_op(self.plan, self.write_share))
+                seq += 1
         except BaseException as exc:
             self.crash = exc
         finally:
