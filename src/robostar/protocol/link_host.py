@@ -9,10 +9,8 @@ from collections.abc import Sequence
 from robostar.errors import LinkRuleError
 from robostar.protocol.fields import FLAG_END, FLAG_OK
 from robostar.protocol.frame import (
-    ACK,
+    _CONTROL_BYTES,
     MAX_PACKET,
-    NAK,
-    RST,
     STX,
     CorruptPacket,
     Packet,
@@ -52,7 +50,6 @@ from robostar.protocol.packets import Shape, split_answer
 
 _RECEIVING = frozenset((State.WAIT_ANSWER, State.WAIT_MORE))
 """The states a multi-packet answer arrives in."""
-_CONTROL_BYTES = frozenset((ACK, NAK, RST))
 _MULTI = Shape.MULTI
 
 
