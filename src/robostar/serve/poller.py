@@ -129,13 +129,12 @@ class Poller:
                     for ch in self._channels():
                         commands.append(ReadPosition(ch, PositionKind.XY))
                         commands.append(ReadPosition(ch, PositionKind.ANGLE))
-                slow = self._slow_reads()
                 if started >= next_slow or reread_all:
                     next_slow = started + self.config.slow_interval
-                    commands += slow
+                    commands += self._slow_reads()
                 elif reread:
                     # a narrow change (a speed, an output): only what it may have changed
-                    commands += [c for c in slow if keys_of(c) & reread]
+                    commands += [c for c in self._slow_reads() if keys_of(c) & reread]
                 if started >= next_history:
                     next_history = started + self.config.history_interval
                     commands.append(ReadAlarmHistory())
