@@ -168,8 +168,8 @@ async def _host_load(url: str, seconds: float) -> tuple[Timed, Timed, int]:
 
 def _ended_during(ends: list[float], timed: Timed) -> list[int]:
     """Per operation: the exchanges that ended on the line while it waited (its own included)."""
-    left, right = bisect.bisect_left, bisect.bisect_left
-    return [right(ends, at + took) - left(ends, at) for at, took in timed]
+    between = bisect.bisect_left
+    return [between(ends, at + took) - between(ends, at) for at, took in timed]
 
 
 async def _watch_model(line: Any, samples: list[tuple[bool, float]]) -> None:
@@ -216,7 +216,7 @@ async def many_hosts(baud: int, seconds: float, poll_share: float | None = None)
             watcher.cancel()
             wire = wire_aas[0]
             updates = line.model.updates - polls_before
-            kind = line.config.poll_share
+            share = line.config.poll_share
     reads = [took for _, took in timed_reads]
     writes = [took for _, took in timed_writes]
     asked = len(reads) + errors
@@ -227,7 +227,7 @@ async def many_hosts(baud: int, seconds: float, poll_share: float | None = None)
     stale = sum(1 for good, _ in seen if not good) / max(1, len(seen))
     mean_age = sum(age for _, age in seen) / max(1, len(seen))
     print(
-        f"  {baud:>6} baud, poll_share {kind:g}: AA exchange {unit * 1e3:6.2f} ms;"
+        f"  {baud:>6} baud, poll_share {share:g}: AA exchange {unit * 1e3:6.2f} ms;"
         f" hosts' AA p50 {read50:5.2f}, p99 {read99:5.2f} AA times ({_ms(reads, 99):.1f} ms);"
         f" write p50 {write50:5.2f}, p99 {write99:5.2f} AA times;"
         f" {asked / seconds:.0f} host AAs/s, {wire / seconds:.0f} wire AAs/s,"
