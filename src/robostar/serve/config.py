@@ -60,6 +60,12 @@ class LineConfig:
     meet fewer long poll reads on the wire (on a slow line, a host's read arriving during a
     poll read waits for its end). 1 (the default): no limit. The model then refreshes less
     often while consumers read; never so little that it goes stale."""
+    rest_interval: float = 10.0
+    """The longest a channel's positions (and the alarm history) go without a real read
+    while status reads vouch for them: while a channel rests (servo on, in position, not
+    running) each status read confirms them instead (see
+    :mod:`robostar.serve.status_witness`); this bounds how long a motion hidden between two
+    status reads can go unseen."""
     io_ports: tuple[int, ...] = (0,)
     max_age: float | None = None
     """Deprecated: no effect (reads are answered from the model only when a request asks)."""
@@ -83,7 +89,13 @@ class LineConfig:
             raise ConfigError(f"{where}.url: {exc}") from None
         if self.baudrate is not None and self.baudrate <= 0:
             raise ConfigError(f"{where}.baudrate: {self.baudrate} is not a positive number")
-        for key in ("timeout", "poll_interval", "slow_interval", "history_interval"):
+        for key in (
+            "timeout",
+            "poll_interval",
+            "slow_interval",
+            "history_interval",
+            "rest_interval",
+        ):
             value = getattr(self, key)
             if not _seconds(value):
                 raise ConfigError(f"{where}.{key}: {value!r} is not a positive number of seconds")
@@ -170,6 +182,7 @@ _LINE_KEYS = {
     "slow_interval": float,
     "history_interval": float,
     "poll_share": float,
+    "rest_interval": float,
     "io_ports": list,
     "max_age": float,
     "channels": dict,

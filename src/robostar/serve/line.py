@@ -119,7 +119,7 @@ class Line:
         self.name = config.name
         self.config = config
         self.model = ControllerModel(config.name)
-        self.feed = ModelFeed(self.model)
+        self.feed = ModelFeed(self.model, config.rest_interval)
         """Reads' answers into the model, and reads that accept an older value out of it."""
         self.lease = Lease(config.name, ttl=lease_ttl)
         self.health = LineHealth()
@@ -571,6 +571,9 @@ class Line:
         beside status and positions; None: everything), so subscribers see the effect
         promptly."""
         self.model.invalidate()
+        if changed is None:
+            # it may move a robot or raise an alarm: the status vouches for nothing read before
+            self.feed.witness.unsettle()
         self.poller.state_changed(changed)
 
     def _count(self, started: float, *, error: bool) -> None:
@@ -616,6 +619,7 @@ class Line:
                 ", ".join(map(str, missing)),
             )
         self.poller.line_opened()
+        self.feed.witness.unsettle()
         self.model.set("info", info)
         self.model.set("online", True)
         self._timeouts = 0
@@ -636,6 +640,7 @@ class Line:
         if reason:
             self.health.last_error = reason
         self.model.mark(Quality.LINE_DOWN)
+        self.feed.witness.unsettle()
         self.model.set("online", False)
 
     # -- the jogs --------------------------------------------------------------------------

@@ -28,7 +28,8 @@ class Quality(enum.Enum):
 
 @dataclass(frozen=True)
 class Sample:
-    """A value as read: ``at`` is the ``time.time()`` of the read."""
+    """A value as read: ``at`` is the ``time.time()`` of the read (or of the status read that
+    last confirmed it, see :meth:`ControllerModel.confirm`)."""
 
     value: Any
     at: float
@@ -149,6 +150,16 @@ class ControllerModel:
         self.updates += 1
         if old is None or old.value != value or old.quality is not Quality.GOOD:
             self._publish(key, sample)
+
+    def confirm(self, key: str, at: float) -> bool:
+        """``key``'s good value still held at ``at`` (a status read vouches for it, see
+        :mod:`robostar.serve.status_witness`): restamp it, as a read of the same value would,
+        without telling subscribers (nothing changed). Whether it was restamped."""
+        sample = self._values.get(key)
+        if sample is None or sample.quality is not Quality.GOOD or sample.at >= at:
+            return False
+        self._values[key] = replace(sample, at=at)
+        return True
 
     def fresh(self, key: str, max_age: float) -> Sample | None:
         """The sample of ``key`` if good, younger than ``max_age`` and newer than the last write."""

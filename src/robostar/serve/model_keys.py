@@ -4,6 +4,7 @@ an older value (``max_age``) is answered from it."""
 from __future__ import annotations
 
 import math
+import time
 from typing import Any
 
 from robostar.commands.base import Command
@@ -14,6 +15,7 @@ from robostar.commands.job import ReadJobName, ReadJobStep
 from robostar.commands.status import ReadAlarms, ReadInfo, ReadPosition, ReadStatus
 from robostar.commands.variables import WriteGlobalFloat, WriteGlobalInt, WriteGlobalPoint
 from robostar.serve.model import ControllerModel
+from robostar.serve.status_witness import StatusWitness
 from robostar.types import PositionKind
 
 __all__ = ["ModelFeed", "changed_by", "keys_of", "model_key"]
@@ -81,12 +83,15 @@ class ModelFeed:
 
     AA answers the status of all three channels; only the channels the controller has
     (``present``, from its AD answer) are model keys, so that the push faces show no channel it
-    lacks. The others' statuses are kept aside, to answer AA from the model whole."""
+    lacks. The others' statuses are kept aside, to answer AA from the model whole. Every status
+    answer is also a witness (:class:`StatusWitness`): it confirms the positions of the
+    channels that rest, so that they need not be read again."""
 
-    def __init__(self, model: ControllerModel) -> None:
+    def __init__(self, model: ControllerModel, rest_interval: float = 10.0) -> None:
         self.model = model
         self.present: tuple[int, ...] = (1, 2, 3)
         self._absent: dict[str, Any] = {}
+        self.witness = StatusWitness(model, rest_interval)
 
     def answer(self, command: Command[Any], max_age: float) -> tuple[Any, float] | None:
         """The model's answer to ``command`` and its time, if good and at most ``max_age`` old
@@ -114,14 +119,18 @@ class ModelFeed:
 
     def store(self, command: Command[Any], result: Any, at: float) -> None:
         """Put ``command``'s answer into the model, stamped ``at`` (NaN: now)."""
-        stamp = None if math.isnan(at) else at
+        stamp = time.time() if math.isnan(at) else at
         if isinstance(command, ReadStatus):
+            present: dict[int, Any] = {}
             for n, (key, status) in enumerate(zip(_STATUS_KEYS, result, strict=False), start=1):
                 if n in self.present:
                     self.model.set(key, status, stamp)
+                    present[n] = status
                 else:
                     self._absent[key] = status
+            self.witness.status(present, stamp)
             return
         one = model_key(command)
         if one is not None:
             self.model.set(one, result, stamp)
+            self.witness.read(one, stamp)

@@ -9,7 +9,9 @@ model too (as Home Assistant's DataUpdateCoordinator serves its entities). They 
 consumers' reads until the model would go stale waiting, then go ahead of them, so that no
 number of readers can starve it. A value a consumer's read refreshed within half a poll
 interval (and after the last state change) is not read again by the cycle: hosts polling AA
-keep ``ch{n}/status`` fresh, and the wire's time goes to what nobody else reads.
+keep ``ch{n}/status`` fresh, and the wire's time goes to what nobody else reads. Nor is a value
+the status vouches for (the positions of a channel at rest, see
+:mod:`robostar.serve.status_witness`): it was confirmed by that status read.
 """
 
 from __future__ import annotations
