@@ -58,9 +58,8 @@ from robostar.serve.line_errors import (
 from robostar.serve.line_health import LineHealth
 from robostar.serve.line_queue import (
     PRI_KEEPALIVE,
-    PRI_READ,
+    PRI_REQUEST,
     PRI_STOP,
-    PRI_WRITE,
     STOPS,
     TRANSFERS,
 )
@@ -286,7 +285,7 @@ class Line:
         self, command: Command[R], who: Who, is_stop: bool, face_audits: bool = False
     ) -> R:
         """:meth:`execute`'s part past the lease: queue, wait, audit, follow jogs."""
-        priority = PRI_STOP if is_stop else PRI_WRITE
+        priority = PRI_STOP if is_stop else PRI_REQUEST
         if isinstance(command, JogContinue):
             priority = PRI_KEEPALIVE
         job: _Job | None = None
@@ -352,7 +351,7 @@ class Line:
         self._reads_waiting += 1
         self.poller.consumer_read()
         try:
-            result, began = await self.reads.read(command, PRI_READ, who)
+            result, began = await self.reads.read(command, PRI_REQUEST, who)
         finally:
             self._reads_waiting -= 1
         return cast(R, result), began

@@ -1,8 +1,15 @@
 """The line's queue order and its jobs: what the worker takes, in which order.
 
-Stops (CF, CD, CI, BG) go first, then a jog keepalive (BF), then writes, then consumers' reads
-and last the poller's reads (unless the model would go stale waiting: then before the
-consumers' reads, so that no number of readers can starve it).
+Stops (CF, CD, CI, BG) go first, then a jog keepalive (BF), then the consumers' requests,
+writes and reads alike, first come first served, and last the poller's reads: they use the
+time the consumers leave. A poll read that would let the model go stale waiting takes its
+place among the consumers' requests instead (at the back, as if it had just come), so that no
+number of readers can starve the poller, and none waits for more than one of its reads.
+
+Why writes do not pass reads: a host's read would then wait for the exchange on the wire, any
+number of writes that came after it, and its own flight. First come first served, it waits for
+the exchange on the wire and the flights queued before it (one per distinct read: identical
+reads share a flight), and a write waits likewise; what must not wait goes as a stop.
 """
 
 from __future__ import annotations
@@ -23,9 +30,8 @@ __all__ = [
     "PRI_KEEPALIVE",
     "PRI_LATE_POLL",
     "PRI_POLL",
-    "PRI_READ",
+    "PRI_REQUEST",
     "PRI_STOP",
-    "PRI_WRITE",
     "STOPS",
     "TRANSFERS",
     "Job",
@@ -36,9 +42,10 @@ STOPS = (EmergencyStop, StopJob, StopHoming, JogStop)
 TRANSFERS = (UploadFile, DownloadFile, ReadAlarmHistory)
 """Long multi-packet exchanges a stop cancels rather than waits for."""
 
-PRI_STOP, PRI_KEEPALIVE, PRI_WRITE, PRI_LATE_POLL, PRI_READ, PRI_POLL = range(6)
-"""Queue order, lowest first. The poller's reads come last, unless the model has gone
-unrefreshed too long: then they go before the consumers' reads (PRI_LATE_POLL)."""
+PRI_STOP, PRI_KEEPALIVE, PRI_REQUEST, PRI_POLL = range(4)
+"""Queue order, lowest first (and within one, the order of arrival)."""
+PRI_LATE_POLL = PRI_REQUEST
+"""A poll read of a model gone unrefreshed too long: in the consumers' queue, at its back."""
 
 
 @dataclass(order=True)

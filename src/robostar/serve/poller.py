@@ -6,12 +6,12 @@ every ``slow_interval`` (and at once after a state change); the alarm history ev
 ``history_interval``. Its reads are flights of :class:`~robostar.serve.reads.ReadFlights`, so a
 consumer's read waiting with one is answered by it and every consumer's read refreshes the
 model too (as Home Assistant's DataUpdateCoordinator serves its entities). They wait behind the
-consumers' reads until the model would go stale waiting, then go ahead of them, so that no
-number of readers can starve it. A value a consumer's read refreshed within half a poll
-interval (and after the last state change) is not read again by the cycle: hosts polling AA
-keep ``ch{n}/status`` fresh, and the wire's time goes to what nobody else reads. Nor is a value
-the status vouches for (the positions of a channel at rest, see
-:mod:`robostar.serve.status_witness`): it was confirmed by that status read.
+consumers' requests until the model would go stale waiting, then take their place among them
+(first come, first served), so that no number of readers can starve it. A value a consumer's
+read refreshed within half a poll interval (and after the last state change) is not read again
+by the cycle: hosts polling AA keep ``ch{n}/status`` fresh, and the wire's time goes to what
+nobody else reads. Nor is a value the status vouches for (the positions of a channel at rest,
+see :mod:`robostar.serve.status_witness`): it was confirmed by that status read.
 """
 
 from __future__ import annotations
@@ -51,7 +51,7 @@ STEADY_KEYS = frozenset(("info", "online"))
 
 def stale_after(config: LineConfig) -> float:
     """Seconds without a complete poll after which the model's values are no longer vouched
-    for (marked STALE), and the poller's reads jump ahead of the consumers'."""
+    for (marked STALE), and the poller's reads queue with the consumers' requests."""
     return max(5 * config.poll_interval, 2 * config.slow_interval)
 
 
@@ -229,8 +229,8 @@ class Poller:
 
     async def _poll_read(self, command: Command[Any]) -> float:
         """A poll read, a flight like a consumer's (its answer refreshes the model): behind
-        the consumers' reads, until the model would go stale waiting; from then on ahead of
-        them. The ``time.time()`` its exchange began."""
+        the consumers' requests, until the model would go stale waiting; from then on among
+        them, in the order of arrival. The ``time.time()`` its exchange began."""
         limit = stale_after(self.config)
         age = self.health.poll_age or 0.0
         self._check_open()
