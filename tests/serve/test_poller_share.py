@@ -48,6 +48,12 @@ def test_it_never_waits_unless_it_must() -> None:
     assert _waits(0.25, consumer=True, poll_age=1.5) == []  # late: freshness first
 
 
+def test_a_small_share_never_waits_past_half_way_to_stale() -> None:
+    # 40 ms at a share of 0.01 would be a 3.96 s pause; the model goes stale after 2 s without
+    # a complete poll, and 0.1 s of it have gone: it waits the 0.9 s left to half-way only
+    assert _waits(0.01, consumer=True) == [pytest.approx(0.9, abs=0.01)]
+
+
 @pytest.mark.parametrize("share", [0.0, -0.5, 1.5, float("nan")])
 def test_a_share_that_is_not_one_is_refused(share: float) -> None:
     with pytest.raises(ConfigError, match="poll_share"):

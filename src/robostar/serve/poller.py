@@ -209,15 +209,18 @@ class Poller:
         after an exchange of ``wire_time`` seconds, wait ``wire_time * (1 - share) / share``
         (an exchange on the wire cannot be interrupted, so a host's read arriving during a long
         poll read waits for its end: on a slow line that is the hosts' latency). Never while
-        the model is late (its freshness comes first then)."""
+        the model is half-way to stale, nor past that point (its freshness comes first then):
+        a small share after a long read would otherwise wait longer than the model may go
+        unrefreshed."""
         share = self.config.poll_share
         if share >= 1.0 or math.isnan(wire_time) or wire_time <= 0:
             return
         if time.monotonic() - self._consumer_at > CONTENTION_WINDOW:
             return
-        if (self.health.poll_age or 0.0) > stale_after(self.config) / 2:
+        room = stale_after(self.config) / 2 - (self.health.poll_age or 0.0)
+        if room <= 0:
             return
-        await asyncio.sleep(wire_time * (1.0 - share) / share)
+        await asyncio.sleep(min(wire_time * (1.0 - share) / share, room))
 
     def _mark_stale(self, command: Command[Any]) -> None:
         """Mark STALE the good model values that ``command`` (a poll read) refreshes."""
