@@ -27,6 +27,8 @@ from typing import Any
 import robostar
 from reliability.history_faults import CONSUMER_TIMEOUTS, LINE_FAULTS, FaultPlayer
 from reliability.history_judge import Op, Verdict, judge
+from reliability.history_model import CONSUMER as MODEL
+from reliability.history_model import ModelWatcher
 from reliability.history_ops import JOB_CHANNEL, ApiConsumer, ClientConsumer
 from robostar.errors import PortError
 from robostar.serve import LineConfig, LineServer, ServeConfig
@@ -67,6 +69,9 @@ class HistoryConfig:
     """With faults: the consumers go on past ``ops`` until the player has begun at least this
     many hangs and restarts, so that a short run (a CI slice, on a fast machine) is never over
     before its first fault."""
+    watch_model: bool = True
+    """Judge the line's model too (what the push faces publish), sampled all along: see
+    :mod:`reliability.history_model`."""
     stale_consumer: bool = False
     """Plant a fake: one consumer answers its reads from its own earlier answers (a stale
     cache), so that the checker is seen to catch it."""
@@ -111,6 +116,7 @@ class HistoryReport:
             "ops": len(self.ops),
             "checked_reads": self.verdict.reads,
             "checked_writes": self.verdict.writes,
+            "model_samples": sum(1 for op in self.ops if op.consumer == MODEL),
             "unchecked": self.verdict.unchecked,
             "outcomes": outcomes,
             "violations": self.violations,
@@ -353,6 +359,15 @@ def _rig(config: HistoryConfig) -> Iterator[Rig]:
             rig.close()
 
 
+def _watcher(config: HistoryConfig, rig: Rig) -> ModelWatcher:
+    def model() -> Any:
+        server = rig.server.server if rig.server is not None else None
+        return None if server is None else server.lines["cell1"].model
+
+    # an AC's exchange ends within the line's timeout, or one resend's
+    return ModelWatcher(model, (1, 2), exchange_bound=2 * config.line_timeout).start()
+
+
 def run_history(
     config: HistoryConfig, progress: Callable[[int], None] | None = None
 ) -> HistoryReport:
@@ -364,6 +379,7 @@ def run_history(
         since = time.monotonic()
         consumers = _consumers(config, rig)
         threads = [threading.Thread(target=c.run, name=c.plan.name) for c in consumers]
+        watcher = _watcher(config, rig) if config.watch_model else None
         if config.faults:
             rig.faults_on()
             player = FaultPlayer(rig, config.seed, config.fault_every).start()
@@ -386,9 +402,13 @@ def run_history(
                 next_report += 10_000
         if player is not None:
             player.stop()
+        if watcher is not None:
+            watcher.stop()
         time.sleep(0.2)  # the last unknown-outcome writes reach the journal
     entries = rig.journal.entries or []
     ops: list[Op] = [op for c in consumers for op in c.ops]
+    if watcher is not None:
+        ops += watcher.ops
     verdict = judge(entries, ops, since=since)
     crashes = [f"{c.plan.name}: {c.crash!r}" for c in consumers if c.crash is not None]
     if player is not None and player.failure is not None:
