@@ -16,6 +16,11 @@
    flight); and what the push faces see meanwhile: the model's positions refreshed per second,
    their mean age, and the stale fraction (of samples taken every 20 ms, those not good).
    At 9600 baud, also with the line's ``poll_share`` at 0.5, 0.25 and 0.1 (the default: 1).
+   The robot rests (servo on, homed, still: a cell waiting on its robot), so the status
+   vouches for its positions and the poller reads them every ``rest_interval`` only; at 9600
+   baud also with the servo off (positions read every poll cycle, as the status cannot vouch
+   for an arm that can be pushed by hand) and with channel 1 moving to and fro all along
+   (driven over a connection of its own, as from the pendant).
 """
 
 from __future__ import annotations
@@ -126,22 +131,22 @@ Timed = list[tuple[float, float]]
 """(``time.time()`` at the call, latency in seconds) per operation."""
 
 
-def _hosts(url: str, seconds: float) -> tuple[Timed, Timed, int]:
+def _hosts(url: str, seconds: float, spread: bool) -> tuple[Timed, Timed, int]:
     """In a process of its own (the hosts are other programs, on other machines): HOSTS hosts
     polling AA at HOST_HZ and one writing CB every WRITE_EVERY, for ``seconds``; the reads'
     and the writes' latencies and the count of failed reads."""
-    return asyncio.run(_host_load(url, seconds))
+    return asyncio.run(_host_load(url, seconds, spread))
 
 
-async def _host_load(url: str, seconds: float) -> tuple[Timed, Timed, int]:
+async def _host_load(url: str, seconds: float, spread: bool) -> tuple[Timed, Timed, int]:
     reads: Timed = []
     writes: Timed = []
     errors = [0]
     end = time.monotonic() + seconds
 
-    async def poller() -> None:
+    async def poller(phase: float) -> None:
         async with AsyncClient(url, timeout=10.0) as client:
-            next_at = time.monotonic()
+            next_at = time.monotonic() + phase
             while time.monotonic() < end:
                 at, t = time.time(), time.perf_counter()
                 try:
@@ -162,7 +167,10 @@ async def _host_load(url: str, seconds: float) -> tuple[Timed, Timed, int]:
                 writes.append((at, time.perf_counter() - t))
                 await asyncio.sleep(WRITE_EVERY)
 
-    await asyncio.gather(*(poller() for _ in range(HOSTS)), writer())
+    # aligned: every host asks at the same instant (the worst case); spread: evenly apart
+    # over a period, as programs on separate machines started at different times would
+    phases = [n / (HOSTS * HOST_HZ) if spread else 0.0 for n in range(HOSTS)]
+    await asyncio.gather(*(poller(phase) for phase in phases), writer())
     return reads, writes, errors[0]
 
 
@@ -181,8 +189,39 @@ async def _watch_model(line: Any, samples: list[tuple[bool, float]]) -> None:
             samples.append((sample.quality is Quality.GOOD, time.time() - sample.at))
 
 
-async def many_hosts(baud: int, seconds: float, poll_share: float | None = None) -> None:
+ROBOT_STATES = ("rests", "servo off", "moving")
+
+
+async def _prepare(url: str, robot: str) -> None:
+    """Put the simulator's robots in the state ``robot`` names (see ROBOT_STATES)."""
+    if robot == "servo off":
+        return
+    async with AsyncClient(url, timeout=10.0) as client:
+        for channel in (1, 2):
+            await client.servo(channel, True)
+            await client.home(channel)
+        for channel in (1, 2):
+            await client.wait_stopped(channel, timeout=60.0)
+
+
+async def _to_and_fro(url: str) -> None:
+    """Channel 1's first axis 30 degrees one way, then back, for ever (cancel to stop)."""
+    async with AsyncClient(url, timeout=10.0) as client:
+        step = 30.0
+        while True:
+            await client.move_by(1, (step, 0.0, 0.0, 0.0), wait=True, timeout=30.0)
+            step = -step
+
+
+async def many_hosts(
+    baud: int,
+    seconds: float,
+    poll_share: float | None = None,
+    robot: str = "rests",
+    spread: bool = False,
+) -> None:
     with _simulator(baud) as sim_url:
+        await _prepare(sim_url, robot)
         unit = await _aa_exchange_time(sim_url)
         config = _server_config(sim_url)
         if poll_share is not None:
@@ -208,12 +247,18 @@ async def many_hosts(baud: int, seconds: float, poll_share: float | None = None)
             polls_before = line.model.updates
             seen: list[tuple[bool, float]] = []
             watcher = asyncio.create_task(_watch_model(line, seen))
+            mover = asyncio.create_task(_to_and_fro(sim_url)) if robot == "moving" else None
             with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn")) as pool:
                 hosts = asyncio.get_running_loop().run_in_executor(
-                    pool, _hosts, f"tcp://{host}:{port}", seconds
+                    pool, _hosts, f"tcp://{host}:{port}", seconds, spread
                 )
                 timed_reads, timed_writes, errors = await hosts
             watcher.cancel()
+            if mover is not None:
+                mover.cancel()
+                with contextlib.suppress(asyncio.CancelledError):
+                    await mover
+            confirmed = line.feed.witness.confirmed
             wire = wire_aas[0]
             updates = line.model.updates - polls_before
             share = line.config.poll_share
@@ -227,7 +272,8 @@ async def many_hosts(baud: int, seconds: float, poll_share: float | None = None)
     stale = sum(1 for good, _ in seen if not good) / max(1, len(seen))
     mean_age = sum(age for _, age in seen) / max(1, len(seen))
     print(
-        f"  {baud:>6} baud, poll_share {share:g}: AA exchange {unit * 1e3:6.2f} ms;"
+        f"  {baud:>6} baud, robot {robot}, hosts {'spread' if spread else 'aligned'},"
+        f" poll_share {share:g}: AA exchange {unit * 1e3:6.2f} ms;"
         f" hosts' AA p50 {read50:5.2f}, p99 {read99:5.2f} AA times ({_ms(reads, 99):.1f} ms);"
         f" write p50 {write50:5.2f}, p99 {write99:5.2f} AA times;"
         f" {asked / seconds:.0f} host AAs/s, {wire / seconds:.0f} wire AAs/s,"
@@ -237,7 +283,8 @@ async def many_hosts(baud: int, seconds: float, poll_share: float | None = None)
         f" {percentile(read_waits, 99):.0f} max {max(read_waits, default=0)},"
         f" write p99 {percentile(write_waits, 99):.0f} max {max(write_waits, default=0)};"
         f" ch1 positions (XY + angles) {positions[0] / seconds:.1f}/s, mean age"
-        f" {mean_age * 1e3:.0f} ms, stale fraction {stale:.3f}"
+        f" {mean_age * 1e3:.0f} ms, stale fraction {stale:.3f};"
+        f" values confirmed by status {confirmed / seconds:.0f}/s"
     )
 
 
@@ -249,10 +296,13 @@ async def main() -> None:
         f" a CB every {WRITE_EVERY:g} s, {seconds:g} s each"
     )
     with contextlib.suppress(KeyboardInterrupt):
-        await many_hosts(9600, seconds)
+        for robot in ROBOT_STATES:
+            await many_hosts(9600, seconds, robot=robot)
         for share in (0.5, 0.25, 0.1):
-            await many_hosts(9600, seconds, share)
+            await many_hosts(9600, seconds, share, robot="moving")
+        await many_hosts(9600, seconds, spread=True)
         await many_hosts(115200, seconds)
+        await many_hosts(115200, seconds, spread=True)
 
 
 if __name__ == "__main__":

@@ -49,6 +49,7 @@ def test_the_ci_slice_through_the_server_finds_no_violation() -> None:
     assert data["checked_reads"] >= 150
     assert data["checked_writes"] >= 60
     assert {op.code for op in report.ops if not op.write} >= {"AA", "AB", "AC", "CA", "GR", "ED"}
+    assert data["model_samples"] >= 20  # and what the push faces publish, all along
 
 
 def test_the_ci_slice_with_faults_finds_no_violation() -> None:
