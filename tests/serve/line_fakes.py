@@ -10,6 +10,7 @@ port that drops.
 from __future__ import annotations
 
 import asyncio
+from collections import Counter
 from collections.abc import AsyncIterator, Callable
 from contextlib import asynccontextmanager
 from pathlib import Path
@@ -19,7 +20,7 @@ from robostar.client.aio import AsyncClient
 from robostar.client.exchange import Progress
 from robostar.commands.base import Command
 from robostar.commands.control import ReadSpeed
-from robostar.serve import LineConfig, LineServer, ServeConfig
+from robostar.serve import LineConfig, LineServer, ServeConfig, Who
 from robostar.serve.line import Line
 from robostar.sim import SimConfig, VirtualController
 from robostar.transport.inproc import AsyncPeerTransport
@@ -122,6 +123,18 @@ async def n1_server(sim: FaultySim, audit: Path) -> AsyncIterator[tuple[Line, st
         await line.wait_polled()
         host, port = server.faces["n1"].addresses["cell1"]  # type: ignore[attr-defined]
         yield line, host, port
+
+
+def poll_reads(line: Line) -> Counter[str]:
+    """The poller's exchanges on ``line`` from now on, counted by code (filled as they end)."""
+    read: Counter[str] = Counter()
+
+    def count(command: Command[Any], outcome: Any, who: Who | None) -> None:
+        if who is None:
+            read[command.CODE] += 1
+
+    line.on_exchange(count)
+    return read
 
 
 async def first_poll(line: Line, timeout: float = 10.0) -> None:

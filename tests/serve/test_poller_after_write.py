@@ -7,11 +7,9 @@ from __future__ import annotations
 
 import asyncio
 from collections import Counter
-from typing import Any
 
 import pytest
 
-from robostar.commands.base import Command
 from robostar.commands.control import SetSpeed
 from robostar.commands.motion import Move
 from robostar.commands.variables import WriteGlobalInt
@@ -22,7 +20,7 @@ from robostar.serve.model_keys import changed_by
 from robostar.sim import SimConfig, VirtualController
 from robostar.types import CoordSystem, MotionType
 
-from .line_fakes import FaultySim, first_poll, wait_for
+from .line_fakes import FaultySim, first_poll, poll_reads, wait_for
 
 ANN = Who("ann", "api")
 SLOW = ("AB", "ED", "EF", "GA", "GB")
@@ -36,25 +34,13 @@ def _line(sim: FaultySim) -> Line:
     return Line(config, client_factory=sim.client)
 
 
-def _poll_reads(line: Line) -> Counter[str]:
-    """The poller's exchanges from now on, counted by code."""
-    read: Counter[str] = Counter()
-
-    def count(command: Command[Any], outcome: Any, who: Who | None) -> None:
-        if who is None:
-            read[command.CODE] += 1
-
-    line.on_exchange(count)
-    return read
-
-
 def test_a_speed_change_rereads_the_speed_only() -> None:
     async def main() -> Counter[str]:
         line = _line(FaultySim())
         await line.start()
         try:
             await first_poll(line)
-            read = _poll_reads(line)
+            read = poll_reads(line)
             await line.execute(SetSpeed(1, 40), who=ANN, implicit_lease=True)
             assert await wait_for(lambda: read["CA"] >= 1, 5.0)
             await line.execute(WriteGlobalInt(3, 7), who=ANN, implicit_lease=True)
@@ -77,7 +63,7 @@ def test_a_refused_change_rereads_everything() -> None:
         await line.start()
         try:
             await first_poll(line)
-            read = _poll_reads(line)
+            read = poll_reads(line)
             past_the_limits = Move(1, MotionType.JOINT, CoordSystem.ANGLE, ((150.0, 0, 0, 0),))
             with pytest.raises(ControllerError):
                 await line.execute(past_the_limits, who=ANN, implicit_lease=True)

@@ -6,13 +6,14 @@ line dropped, or ``rest_interval`` passed since the positions' last real read.""
 from __future__ import annotations
 
 import asyncio
+import contextlib
 from collections import Counter
+from collections.abc import AsyncIterator
 from typing import Any, cast
 
 import pytest
 
 from robostar.client.aio import AsyncClient
-from robostar.commands.base import Command
 from robostar.commands.job import Servo
 from robostar.commands.motion import Home, MoveBy
 from robostar.serve import LineConfig, Who
@@ -24,7 +25,7 @@ from robostar.sim import SimConfig, VirtualController
 from robostar.transport.inproc import AsyncPeerTransport
 from robostar.types import ChannelStatus, CoordSystem, MotionType, PositionKind
 
-from .line_fakes import FaultySim, first_poll, wait_for
+from .line_fakes import FaultySim, first_poll, poll_reads, wait_for
 
 ANN = Who("ann", "api")
 RESTING = ChannelStatus(servo_on=True, ready=True, in_position=True)
@@ -167,17 +168,6 @@ def _line(sim: FaultySim, rest_interval: float = 10.0) -> Line:
     return Line(config, client_factory=sim.client)
 
 
-def _poll_reads(line: Line) -> Counter[str]:
-    read: Counter[str] = Counter()
-
-    def count(command: Command[Any], outcome: Any, who: Who | None) -> None:
-        if who is None:
-            read[command.CODE] += 1
-
-    line.on_exchange(count)
-    return read
-
-
 def _sim() -> FaultySim:
     sim = FaultySim()
     sim.controller = VirtualController(SimConfig(speedup=5.0))
@@ -198,106 +188,60 @@ async def _rest(line: Line) -> None:
     await asyncio.sleep(0.3)
 
 
-def test_at_rest_the_poller_stops_reading_positions_but_not_the_status() -> None:
+def _poller_reads(seconds: float, *, at_rest: bool, rest_interval: float = 10.0) -> Counter[str]:
+    """The poller's exchanges by code over ``seconds``, the robots at rest or (as the
+    simulator starts) with their servos off."""
+
     async def main() -> Counter[str]:
-        line = _line(_sim())
+        line = _line(_sim(), rest_interval)
         await line.start()
         try:
             await first_poll(line)
-            await _rest(line)
-            read = _poll_reads(line)
-            await asyncio.sleep(1.0)  # 20 poll cycles
+            if at_rest:
+                await _rest(line)
+            read = poll_reads(line)
+            await asyncio.sleep(seconds)
             return read
         finally:
             await line.stop()
 
-    read = asyncio.run(main())
+    return asyncio.run(main())
+
+
+def test_at_rest_the_poller_stops_reading_positions_but_not_the_status() -> None:
+    read = _poller_reads(1.0, at_rest=True)  # 20 poll cycles
     assert read["AA"] >= 10
     assert read["AC"] == 0
 
 
 def test_with_the_servo_off_the_poller_reads_positions_every_cycle() -> None:
-    async def main() -> Counter[str]:
-        line = _line(_sim())
-        await line.start()
-        try:
-            await first_poll(line)
-            read = _poll_reads(line)
-            await asyncio.sleep(1.0)
-            return read
-        finally:
-            await line.stop()
-
-    read = asyncio.run(main())
+    read = _poller_reads(1.0, at_rest=False)
     assert read["AC"] >= 10
 
 
 def test_at_rest_the_positions_are_read_again_every_rest_interval() -> None:
-    async def main() -> Counter[str]:
-        line = _line(_sim(), rest_interval=0.4)
-        await line.start()
-        try:
-            await first_poll(line)
-            await _rest(line)
-            read = _poll_reads(line)
-            await asyncio.sleep(1.3)
-            return read
-        finally:
-            await line.stop()
-
-    read = asyncio.run(main())
+    read = _poller_reads(1.3, at_rest=True, rest_interval=0.4)
     channels = 2  # the simulator's default controller has robots on two channels
     # XY and angles of each channel, every 0.4 s (and a poll interval for the cycle to come)
     assert 2 * channels <= read["AC"] <= 4 * 2 * channels
 
 
-def test_a_motion_not_sent_through_the_line_is_seen_and_its_end_read() -> None:
-    """The pendant (here: another connection to the same controller) moves the arm: the
-    status shows it running, the poller reads the positions until it rests again, and the
-    model ends at the controller's position, not the one before the motion."""
-    sim = FaultySim()  # real time: the 60-degree move takes far longer than a poll interval
-
-    async def main() -> None:
-        line = _line(sim)
-        await line.start()
-        try:
-            await first_poll(line)
-            await _rest(line)
-            async with AsyncClient(
-                AsyncPeerTransport(sim.controller.open_session("pendant"))
-            ) as pendant:
-                await pendant.move_by(1, (60.0, 0.0, 0.0, 0.0))
-                assert await wait_for(lambda: _status(line, 1).running, 5.0)
-                await pendant.wait_stopped(1)
-                truth = await pendant.position(1, PositionKind.XY)
-            assert await wait_for(lambda: _position(line, 1) == truth, 2.0)
-        finally:
-            await line.stop()
-
-    asyncio.run(main())
+@contextlib.asynccontextmanager
+async def _resting_line(sim: FaultySim, rest_interval: float = 10.0) -> AsyncIterator[Line]:
+    """A line in front of ``sim``, polled once, its robots at rest; stopped after."""
+    line = _line(sim, rest_interval)
+    await line.start()
+    try:
+        await first_poll(line)
+        await _rest(line)
+        yield line
+    finally:
+        await line.stop()
 
 
-def test_a_motion_too_short_for_the_status_to_see_is_read_after_rest_interval() -> None:
-    """The limit, bounded: a motion that may begin and end between two status reads is in the
-    model at the latest ``rest_interval`` after the positions' last real read."""
-    sim = _sim()
-
-    async def main() -> None:
-        line = _line(sim, rest_interval=0.5)
-        await line.start()
-        try:
-            await first_poll(line)
-            await _rest(line)
-            async with AsyncClient(
-                AsyncPeerTransport(sim.controller.open_session("pendant"))
-            ) as pendant:
-                await pendant.move_by(1, (2.0, 0.0, 0.0, 0.0), wait=True)
-                truth = await pendant.position(1, PositionKind.XY)
-            assert await wait_for(lambda: _position(line, 1) == truth, 1.0)
-        finally:
-            await line.stop()
-
-    asyncio.run(main())
+def _pendant(sim: FaultySim) -> AsyncClient:
+    """A client on a session of its own: the controller's other port, or its pendant."""
+    return AsyncClient(AsyncPeerTransport(sim.controller.open_session("pendant")))
 
 
 def _status(line: Line, channel: int) -> ChannelStatus:
@@ -311,26 +255,46 @@ def _position(line: Line, channel: int) -> Any:
     return None if sample is None or sample.quality is not Quality.GOOD else sample.value
 
 
+def test_a_motion_not_sent_through_the_line_is_seen_and_its_end_read() -> None:
+    """The pendant moves the arm: the status shows it running, the poller reads the positions
+    until it rests again, and the model ends at the controller's position, not the one before
+    the motion."""
+    sim = FaultySim()  # real time: the 60-degree move takes far longer than a poll interval
+
+    async def main() -> None:
+        async with _resting_line(sim) as line, _pendant(sim) as pendant:
+            await pendant.move_by(1, (60.0, 0.0, 0.0, 0.0))
+            assert await wait_for(lambda: _status(line, 1).running, 5.0)
+            await pendant.wait_stopped(1)
+            truth = await pendant.position(1, PositionKind.XY)
+            assert await wait_for(lambda: _position(line, 1) == truth, 2.0)
+
+    asyncio.run(main())
+
+
+def test_a_motion_too_short_for_the_status_to_see_is_read_after_rest_interval() -> None:
+    """The limit, bounded: a motion that may begin and end between two status reads is in the
+    model at the latest ``rest_interval`` after the positions' last real read."""
+    sim = _sim()
+
+    async def main() -> None:
+        async with _resting_line(sim, rest_interval=0.5) as line, _pendant(sim) as pendant:
+            await pendant.move_by(1, (2.0, 0.0, 0.0, 0.0), wait=True)
+            truth = await pendant.position(1, PositionKind.XY)
+            assert await wait_for(lambda: _position(line, 1) == truth, 1.0)
+
+    asyncio.run(main())
+
+
 def test_a_move_through_the_line_is_read_to_its_end() -> None:
     sim = _sim()
 
-    async def main() -> tuple[Any, Any]:
-        line = _line(sim)
-        await line.start()
-        try:
-            await first_poll(line)
-            await _rest(line)
+    async def main() -> None:
+        async with _resting_line(sim) as line, _pendant(sim) as other:
             move = MoveBy(1, MotionType.JOINT, CoordSystem.ANGLE, (0.0, 5.0, 0.0, 0.0))
             await line.execute(move, who=ANN, implicit_lease=True)
-            assert await wait_for(lambda: not _status(line, 1).running, 5.0)
-            await asyncio.sleep(0.3)
-            async with AsyncClient(
-                AsyncPeerTransport(sim.controller.open_session("pendant"))
-            ) as other:
-                truth = await other.position(1, PositionKind.XY)
-            return truth, line.model.get("ch1/position")
-        finally:
-            await line.stop()
+            await other.wait_stopped(1)  # the move is under way as BD is answered
+            truth = await other.position(1, PositionKind.XY)
+            assert await wait_for(lambda: _position(line, 1) == truth, 2.0)
 
-    truth, seen = asyncio.run(main())
-    assert seen is not None and seen.value == truth
+    asyncio.run(main())
