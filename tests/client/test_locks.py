@@ -5,6 +5,7 @@ from __future__ import annotations
 import asyncio
 import threading
 import time
+from collections.abc import Callable
 
 import pytest
 
@@ -14,10 +15,18 @@ from robostar.errors import UsageError
 pytestmark = pytest.mark.timeout(20)
 
 
+def _until(condition: Callable[[], bool], timeout: float = 5.0) -> None:
+    """Wait (spinning, 1 ms naps) until ``condition`` holds; fail after ``timeout``."""
+    end = time.monotonic() + timeout
+    while not condition():
+        assert time.monotonic() < end, "timed out"
+        time.sleep(0.001)
+
+
 def test_an_urgent_acquirer_goes_before_ordinary_waiters() -> None:
     lock = PriorityLock()
     order: list[str] = []
-    release = threading.Event()
+    held, release = threading.Event(), threading.Event()
 
     def take(name: str, urgent: bool) -> None:
         with lock.hold(urgent=urgent):
@@ -25,18 +34,19 @@ def test_an_urgent_acquirer_goes_before_ordinary_waiters() -> None:
 
     def holder() -> None:
         with lock.hold():
+            held.set()
             release.wait()
 
     first = threading.Thread(target=holder)
     first.start()
-    time.sleep(0.05)
+    assert held.wait(5)
     ordinary = [threading.Thread(target=take, args=(f"o{i}", False)) for i in range(3)]
     for thread in ordinary:
         thread.start()
-    time.sleep(0.05)
+    _until(lambda: lock._waiting == 3)  # all three wait: none can have gone before
     urgent = threading.Thread(target=take, args=("urgent", True))
     urgent.start()
-    time.sleep(0.05)
+    _until(lambda: lock._waiting == 4)
     release.set()
     for thread in [first, *ordinary, urgent]:
         thread.join()
