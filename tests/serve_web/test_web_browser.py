@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import socket
-import time
 from typing import Any
 from urllib.parse import urlsplit
 
@@ -53,8 +52,13 @@ def test_a_cancelled_confirmation_sends_nothing(page: Any, stack: Stack) -> None
     page.locator('button[data-action="output"][data-port="0"][data-contact="6"]').click()
     page.locator("#confirm").wait_for(state="visible")
     page.click("#confirm button[value=cancel]")
-    time.sleep(0.5)
-    assert stack.in_sim(lambda c: c.executions["GC"]) == before
+    # a barrier instead of a pause: a switch confirmed after it reaches the controller, and
+    # it is the only one (the page sends in order: a cancelled switch sent would be before it)
+    page.locator('button[data-action="output"][data-port="0"][data-contact="7"]').click()
+    confirm(page, "Switch output 0.7 ON?")
+    wait_until(lambda: stack.in_sim(lambda c: c.model.outputs[0][7]))
+    assert stack.in_sim(lambda c: c.executions["GC"]) == before + 1
+    assert not stack.in_sim(lambda c: c.model.outputs[0][6])
 
 
 def test_a_jog_stops_when_the_keepalive_stops(page: Any, stack: Stack) -> None:
