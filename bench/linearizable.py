@@ -204,11 +204,12 @@ async def _prepare(url: str, robot: str) -> None:
             await client.wait_stopped(channel, timeout=60.0)
 
 
-async def _to_and_fro(url: str) -> None:
-    """Channel 1's first axis 30 degrees one way, then back, for ever (cancel to stop)."""
+async def _to_and_fro(url: str, stop: asyncio.Event) -> None:
+    """Channel 1's first axis 30 degrees one way, then back, until ``stop`` (at the end of a
+    move: a move cancelled on the wire is a move of unknown outcome)."""
     async with AsyncClient(url, timeout=10.0) as client:
         step = 30.0
-        while True:
+        while not stop.is_set():
             await client.move_by(1, (step, 0.0, 0.0, 0.0), wait=True, timeout=30.0)
             step = -step
 
@@ -247,7 +248,12 @@ async def many_hosts(
             polls_before = line.model.updates
             seen: list[tuple[bool, float]] = []
             watcher = asyncio.create_task(_watch_model(line, seen))
-            mover = asyncio.create_task(_to_and_fro(sim_url)) if robot == "moving" else None
+            stop_moving = asyncio.Event()
+            mover = (
+                asyncio.create_task(_to_and_fro(sim_url, stop_moving))
+                if robot == "moving"
+                else None
+            )
             with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn")) as pool:
                 hosts = asyncio.get_running_loop().run_in_executor(
                     pool, _hosts, f"tcp://{host}:{port}", seconds, spread
@@ -255,9 +261,8 @@ async def many_hosts(
                 timed_reads, timed_writes, errors = await hosts
             watcher.cancel()
             if mover is not None:
-                mover.cancel()
-                with contextlib.suppress(asyncio.CancelledError):
-                    await mover
+                stop_moving.set()
+                await mover
             confirmed = line.feed.witness.confirmed
             wire = wire_aas[0]
             updates = line.model.updates - polls_before
