@@ -2,12 +2,15 @@
 
 Every exchange on the line goes through one queue served by one worker, so consumers never
 interleave on the wire (as mbusd serialises Modbus TCP clients onto one RTU line). Stops (CF, CD,
-CI, BG) go first and cancel a transfer in progress; a jog keepalive (BF) goes next; then writes,
-consumers' reads and last the poller's reads (:mod:`robostar.serve.line_queue`).
+CI, BG) go first and cancel a transfer in progress; a jog keepalive (BF) goes next; then the
+consumers' requests, writes and reads alike, first come first served, and last the poller's reads
+(:mod:`robostar.serve.line_queue`).
 
 The line's collaborators each have one job: :class:`~robostar.serve.reads.ReadFlights` coalesces
 reads (linearizable: each answered by an exchange that began after it arrived),
-:class:`~robostar.serve.poller.Poller` keeps the model fresh through them,
+:class:`~robostar.serve.poller.Poller` keeps the model fresh through them (the
+:class:`~robostar.serve.model_keys.ModelFeed` puts their answers in, its status witness
+confirming a resting arm's positions),
 :class:`~robostar.serve.lease_gate.LeaseGate` checks the lease as a state change is queued and
 again as it is sent, :class:`~robostar.serve.jog_guard.JogGuard` stops jogs nobody keeps alive.
 """
