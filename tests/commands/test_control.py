@@ -25,6 +25,8 @@ from robostar.commands.control import (
 from robostar.errors import FieldError, MalformedAnswerError
 from robostar.protocol.frame import encode_packet
 
+from .checks import assert_class_attributes, assert_decodes_to, assert_round_trip
+
 channels = st.integers(1, 3)
 
 any_control_command = st.one_of(
@@ -81,8 +83,7 @@ def test_request_encodes_to_the_manuals_bytes(command: Command[Any], data: bytes
 
 @pytest.mark.parametrize(("command", "data"), REQUESTS)
 def test_request_decodes_from_the_manuals_bytes(command: Command[Any], data: bytes) -> None:
-    assert type(command).decode(data) == command
-    assert decode_request(data) == command
+    assert_decodes_to(command, data)
 
 
 def test_framed_packets_carry_the_lrc() -> None:
@@ -200,9 +201,7 @@ def test_single_answer_is_a_bare_flag_both_ways(command: Command[None]) -> None:
     ],
 )
 def test_class_attributes(cls: type[Command[Any]], changes_state: bool) -> None:
-    assert cls.CHANGES_STATE is changes_state
-    assert cls.ANSWER_DUMMY is False
-    assert (cls.__doc__ or "").startswith(f"{cls.CODE}: ")
+    assert_class_attributes(cls, changes_state=changes_state, dummy=False)
 
 
 # -- round-trip properties -------------------------------------------------------------------
@@ -210,9 +209,7 @@ def test_class_attributes(cls: type[Command[Any]], changes_state: bool) -> None:
 
 @given(any_control_command)
 def test_request_round_trip(command: Command[Any]) -> None:
-    data = command.encode()
-    assert type(command).decode(data) == command
-    assert decode_request(data) == command
+    assert_round_trip(command)
 
 
 @given(channels, st.integers(0, 1000))

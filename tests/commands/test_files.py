@@ -28,6 +28,8 @@ from robostar.protocol.fields import FileName
 from robostar.protocol.frame import encode_packet
 from robostar.types import AlarmRecord, ArmForm, CoordSystem, FileRecord, JobFile, Point, PointFile
 
+from .checks import assert_class_attributes, assert_decodes_to, assert_round_trip
+
 channels = st.integers(1, 3)
 # Values that fit 10 bytes with 3 decimals, exact in thousandths.
 coords = st.integers(-99_999_999, 999_999_999).map(lambda n: n / 1000)
@@ -94,8 +96,7 @@ def test_request_encodes_to_the_manuals_bytes(command: Command[Any], data: bytes
 
 @pytest.mark.parametrize(("command", "data"), REQUESTS)
 def test_request_decodes_from_the_manuals_bytes(command: Command[Any], data: bytes) -> None:
-    assert type(command).decode(data) == command
-    assert decode_request(data) == command
+    assert_decodes_to(command, data)
 
 
 def test_framed_requests_carry_the_lrc() -> None:
@@ -142,9 +143,7 @@ def test_class_attributes(
     cls: type[Command[Any]], shape: Shape, changes_state: bool, dummy: bool
 ) -> None:
     assert cls.SHAPE is shape
-    assert cls.CHANGES_STATE is changes_state
-    assert cls.ANSWER_DUMMY is dummy
-    assert (cls.__doc__ or "").startswith(f"{cls.CODE}: ")
+    assert_class_attributes(cls, changes_state=changes_state, dummy=dummy)
 
 
 # -- FA --------------------------------------------------------------------------------------
@@ -706,6 +705,4 @@ any_file_command = st.one_of(
 
 @given(any_file_command)
 def test_request_round_trip(command: Command[Any]) -> None:
-    data = command.encode()
-    assert type(command).decode(data) == command
-    assert decode_request(data) == command
+    assert_round_trip(command)

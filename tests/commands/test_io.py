@@ -14,6 +14,8 @@ from robostar.errors import FieldError, MalformedAnswerError
 from robostar.protocol.frame import encode_packet
 from robostar.types import IOState
 
+from .checks import assert_class_attributes, assert_decodes_to, assert_round_trip
+
 ports = st.integers(0, 4)
 contact_states = st.lists(st.booleans(), min_size=16, max_size=16).map(tuple)
 
@@ -43,8 +45,7 @@ def test_request_encodes_to_the_manuals_bytes(command: Command[Any], data: bytes
 
 @pytest.mark.parametrize(("command", "data"), REQUESTS)
 def test_request_decodes_from_the_manuals_bytes(command: Command[Any], data: bytes) -> None:
-    assert type(command).decode(data) == command
-    assert decode_request(data) == command
+    assert_decodes_to(command, data)
 
 
 def test_framed_packets_carry_the_lrc() -> None:
@@ -69,9 +70,7 @@ def test_receivers_accept_a_space_padded_port() -> None:
 )
 def test_class_attributes(cls: type[Command[Any]], changes_state: bool) -> None:
     assert cls.SHAPE is Shape.SINGLE
-    assert cls.CHANGES_STATE is changes_state
-    assert cls.ANSWER_DUMMY is False
-    assert (cls.__doc__ or "").startswith(f"{cls.CODE}: ")
+    assert_class_attributes(cls, changes_state=changes_state, dummy=False)
 
 
 # -- answers ---------------------------------------------------------------------------------
@@ -207,6 +206,4 @@ any_io_command = st.one_of(
 
 @given(any_io_command)
 def test_request_round_trip(command: Command[Any]) -> None:
-    data = command.encode()
-    assert type(command).decode(data) == command
-    assert decode_request(data) == command
+    assert_round_trip(command)

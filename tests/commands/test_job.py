@@ -16,6 +16,8 @@ from robostar.protocol.fields import FileName
 from robostar.protocol.frame import encode_packet
 from robostar.types import JobMode
 
+from .checks import assert_class_attributes, assert_decodes_to, assert_round_trip
+
 channels = st.integers(1, 3)
 
 
@@ -65,8 +67,7 @@ def test_request_encodes_to_the_manuals_bytes(command: Command[Any], data: bytes
 
 @pytest.mark.parametrize(("command", "data"), REQUESTS)
 def test_request_decodes_from_the_manuals_bytes(command: Command[Any], data: bytes) -> None:
-    assert type(command).decode(data) == command
-    assert decode_request(data) == command
+    assert_decodes_to(command, data)
 
 
 def test_framed_packets_carry_the_lrc() -> None:
@@ -182,9 +183,7 @@ def test_ea_answer_is_a_bare_flag() -> None:
     ],
 )
 def test_class_attributes(cls: type[Command[Any]], changes_state: bool) -> None:
-    assert cls.CHANGES_STATE is changes_state
-    assert cls.ANSWER_DUMMY is False
-    assert (cls.__doc__ or "").startswith(f"{cls.CODE}: ")
+    assert_class_attributes(cls, changes_state=changes_state, dummy=False)
 
 
 # -- round-trip properties -------------------------------------------------------------------
@@ -192,9 +191,7 @@ def test_class_attributes(cls: type[Command[Any]], changes_state: bool) -> None:
 
 @given(any_job_command)
 def test_request_round_trip(command: Command[Any]) -> None:
-    data = command.encode()
-    assert type(command).decode(data) == command
-    assert decode_request(data) == command
+    assert_round_trip(command)
 
 
 @given(channels, st.booleans(), st.integers(0, 99))

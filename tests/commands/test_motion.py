@@ -23,6 +23,8 @@ from robostar.protocol.fields import FileName
 from robostar.protocol.frame import encode_packet
 from robostar.types import CoordSystem, JogDirection, MotionType
 
+from .checks import assert_class_attributes, assert_decodes_to, assert_round_trip
+
 # -- strategies ------------------------------------------------------------------------------
 
 channels = st.integers(1, 3)
@@ -151,8 +153,7 @@ def test_request_encodes_to_the_manuals_bytes(command: Command[None], data: byte
 
 @pytest.mark.parametrize(("command", "data"), REQUESTS)
 def test_request_decodes_from_the_manuals_bytes(command: Command[None], data: bytes) -> None:
-    assert type(command).decode(data) == command
-    assert decode_request(data) == command
+    assert_decodes_to(command, data)
 
 
 def test_framed_packets_carry_the_lrc() -> None:
@@ -208,9 +209,7 @@ def test_motion_commands_are_single_state_changing_without_answer_dummy(
 ) -> None:
     assert cls.CODE[0] == "B"
     assert cls.SHAPE is Shape.SINGLE
-    assert cls.CHANGES_STATE is True
-    assert cls.ANSWER_DUMMY is False
-    assert (cls.__doc__ or "").startswith(f"{cls.CODE}: ")
+    assert_class_attributes(cls, changes_state=True)
 
 
 # -- round-trip properties -------------------------------------------------------------------
@@ -218,9 +217,7 @@ def test_motion_commands_are_single_state_changing_without_answer_dummy(
 
 @given(any_motion_command)
 def test_request_round_trip(command: Command[None]) -> None:
-    data = command.encode()
-    assert type(command).decode(data) == command
-    assert decode_request(data) == command
+    assert_round_trip(command)
 
 
 @given(moves())

@@ -13,6 +13,8 @@ from robostar.commands.system import ReadLastError, ReadParameters
 from robostar.errors import FieldError, MalformedAnswerError
 from robostar.protocol.frame import encode_packet
 
+from .checks import assert_class_attributes, assert_decodes_to, assert_round_trip
+
 printable = st.characters(min_codepoint=0x20, max_codepoint=0x7E)
 ke_channels = st.sampled_from([1, 2, 3, None])
 ke_indexes = st.sampled_from([-1]) | st.integers(1, 99)
@@ -40,8 +42,7 @@ def test_request_encodes_to_the_manuals_bytes(command: Command[Any], data: bytes
 
 @pytest.mark.parametrize(("command", "data"), REQUESTS)
 def test_request_decodes_from_the_manuals_bytes(command: Command[Any], data: bytes) -> None:
-    assert type(command).decode(data) == command
-    assert decode_request(data) == command
+    assert_decodes_to(command, data)
 
 
 def test_framed_packets_carry_the_lrc() -> None:
@@ -58,9 +59,7 @@ def test_receivers_accept_a_zero_padded_index() -> None:
 )
 def test_class_attributes(cls: type[Command[Any]], shape: Shape) -> None:
     assert cls.SHAPE is shape
-    assert cls.CHANGES_STATE is False
-    assert cls.ANSWER_DUMMY is True
-    assert (cls.__doc__ or "").startswith(f"{cls.CODE}: ")
+    assert_class_attributes(cls, changes_state=False, dummy=True)
 
 
 # -- KD --------------------------------------------------------------------------------------
@@ -161,6 +160,4 @@ def test_kd_request_has_no_fields() -> None:
 
 @given(st.one_of(st.just(ReadLastError()), st.builds(ReadParameters, ke_channels, ke_indexes)))
 def test_request_round_trip(command: Command[Any]) -> None:
-    data = command.encode()
-    assert type(command).decode(data) == command
-    assert decode_request(data) == command
+    assert_round_trip(command)

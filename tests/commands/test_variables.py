@@ -21,6 +21,8 @@ from robostar.errors import FieldError, MalformedAnswerError
 from robostar.protocol.frame import encode_packet
 from robostar.types import ArmForm, CoordSystem, Point
 
+from .checks import assert_decodes_to, assert_round_trip
+
 channels = st.integers(1, 3)
 coords10 = st.integers(-99_999_999, 999_999_999).map(lambda n: n / 1000)
 point_indexes = st.integers(0, 1023)
@@ -79,8 +81,7 @@ def test_request_encodes_to_the_manuals_bytes(command: Command[Any], data: bytes
 
 @pytest.mark.parametrize(("command", "data"), REQUESTS)
 def test_request_decodes_from_the_manuals_bytes(command: Command[Any], data: bytes) -> None:
-    assert type(command).decode(data) == command
-    assert decode_request(data) == command
+    assert_decodes_to(command, data)
 
 
 def test_receivers_accept_the_manuals_left_aligned_value_and_zero_padding() -> None:
@@ -336,9 +337,7 @@ any_variable_command = st.one_of(
 
 @given(any_variable_command)
 def test_request_round_trip(command: Command[Any]) -> None:
-    data = command.encode()
-    assert type(command).decode(data) == command
-    assert decode_request(data) == command
+    assert_round_trip(command)
 
 
 def test_gw_point_pads_missing_axes_with_zero() -> None:
