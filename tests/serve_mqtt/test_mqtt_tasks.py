@@ -29,7 +29,7 @@ def _server(broker: Broker, **mqtt: Any) -> LineServer:
 
 def _pumps(server: LineServer) -> list[asyncio.Task[Any]]:
     tasks = server.faces["mqtt"].tasks  # type: ignore[attr-defined]
-    return [t for t in tasks if t.get_coro().__qualname__ == "_BrokerLink.pump"]
+    return [t for t in tasks if t.get_coro().__qualname__ == "BrokerLink.pump"]
 
 
 def test_a_full_disk_under_the_buffer_does_not_end_the_pump(
