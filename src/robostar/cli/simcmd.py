@@ -243,19 +243,7 @@ def sim_input(
       robostar sim-input 0 3 on                  # port 0, contact 3 on
       robostar --port tcp://127.0.0.1:9100 io in 0
     """
-    from robostar.sim.control import send_control
-    from robostar.sim.listeners import parse_listen
-
-    line = f"input {port} {contact} {state.lower()} {controller}"
-    try:
-        answer = send_control(parse_listen(control), line)
-    except OSError as error:
-        raise UsageError(
-            f"no simulator control socket at {control} ({error}); start one with "
-            f"`robostar sim --control {control}`"
-        ) from None
-    if answer != "ok":
-        raise UsageError(f"the simulator refused: {answer.removeprefix('error: ')}")
+    _control(control, f"input {port} {contact} {state.lower()} {controller}")
     if session.out.json:
         click.echo(json.dumps({"port": port, "contact": contact, "on": state.lower() == "on"}))
     else:
@@ -303,19 +291,7 @@ def sim_alarm_raise(
     Example:
       robostar sim alarm raise 1153 --channel 1
     """
-    from robostar.sim.control import send_control
-    from robostar.sim.listeners import parse_listen
-
-    line = f"alarm {code} {alarm_channel} {controller}"
-    try:
-        answer = send_control(parse_listen(control), line)
-    except OSError as error:
-        raise UsageError(
-            f"no simulator control socket at {control} ({error}); start one with "
-            f"`robostar sim --control {control}`"
-        ) from None
-    if answer != "ok":
-        raise UsageError(f"the simulator refused: {answer.removeprefix('error: ')}")
+    _control(control, f"alarm {code} {alarm_channel} {controller}")
     session.out.result(
         {"ok": True, "code": code, "channel": int(alarm_channel), "simulator": True},
         Text(f"SIMULATOR: alarm {code} raised on channel {alarm_channel}."),
@@ -346,3 +322,20 @@ def sim_alarm_clear(session: ConsoleSession) -> None:
     session.out.result(
         {"ok": True, "cleared": True}, Text("SIMULATOR: alarms cleared.", style="green")
     )
+
+
+def _control(control: str, line: str) -> None:
+    """Send ``line`` to the control socket of a running simulator at ``control``; a clear
+    error when there is none, or when it refuses the line."""
+    from robostar.sim.control import send_control
+    from robostar.sim.listeners import parse_listen
+
+    try:
+        answer = send_control(parse_listen(control), line)
+    except OSError as error:
+        raise UsageError(
+            f"no simulator control socket at {control} ({error}); start one with "
+            f"`robostar sim --control {control}`"
+        ) from None
+    if answer != "ok":
+        raise UsageError(f"the simulator refused: {answer.removeprefix('error: ')}")
