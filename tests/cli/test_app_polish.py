@@ -100,4 +100,6 @@ def test_sim_alarm_raise_and_clear(run: Run, as_json: AsJson, served: tuple[str,
     assert as_json(run("--json", "alarms", port=tcp))["alarms"] == []
     bad = run("sim", "alarm", "raise", "1", "--control", "127.0.0.1:9", port=None)
     assert bad.exit_code == 2 and "control socket" in bad.stderr
+    unknown = run("sim", "alarm", "raise", "1", "--control", control, port=None)  # no such code
+    assert unknown.exit_code == 2 and "simulator refused: alarm code 1" in unknown.stderr
     assert json.loads(run("--json", "sim", "alarm", "raise", "12345", port=None).stderr)
