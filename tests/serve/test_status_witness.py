@@ -109,12 +109,30 @@ def test_nothing_is_confirmed_after_a_state_change_until_read_again(
     monkeypatch.setattr("robostar.serve.status_witness.time.time", lambda: 100.15)
     witness.unsettle()  # a move went out (or the line dropped, or opened)
     witness.status({1: RESTING}, 100.12)  # began before the change, landed after: no witness
-    witness.status({1: RESTING}, 100.2)
-    witness.status({1: RESTING}, 100.3)
+    witness.status({1: RESTING}, 100.7)  # (past SETTLE: see the next test)
+    witness.status({1: RESTING}, 100.8)
     assert model.get("ch1/position").at == 100.1  # type: ignore[union-attr]
-    _read(model, witness, "ch1/position", (5.0, 2.0), 100.4)  # read again: confirmed again
-    witness.status({1: RESTING}, 100.5)
-    assert model.get("ch1/position").at == 100.5  # type: ignore[union-attr]
+    _read(model, witness, "ch1/position", (5.0, 2.0), 100.9)  # read again: confirmed again
+    witness.status({1: RESTING}, 101.0)
+    assert model.get("ch1/position").at == 101.0  # type: ignore[union-attr]
+
+
+def test_no_rest_starts_while_a_state_change_settles(monkeypatch: pytest.MonkeyPatch) -> None:
+    # an inching step: answered at 100.0, moving from 100.1 to 100.15 (between two status
+    # reads), a status at 100.05 still showing rest and a position read at 100.07 before it
+    model, witness = _witness()
+    monkeypatch.setattr("robostar.serve.status_witness.time.time", lambda: 100.0)
+    witness.unsettle()
+    witness.status({1: RESTING}, 100.05)
+    _read(model, witness, "ch1/position", (1.0, 2.0), 100.07)
+    witness.status({1: RESTING}, 100.25)
+    witness.status({1: RESTING}, 100.45)
+    assert model.get("ch1/position").at == 100.07  # type: ignore[union-attr]
+    witness.status({1: RESTING}, 100.55)  # settled: a rest starts here
+    assert model.get("ch1/position").at == 100.07  # type: ignore[union-attr]
+    _read(model, witness, "ch1/position", (1.01, 2.0), 100.6)  # where the step ended
+    witness.status({1: RESTING}, 100.65)
+    assert model.get("ch1/position").at == 100.65  # type: ignore[union-attr]
 
 
 def test_a_position_is_read_again_after_rest_interval_all_the_same() -> None:

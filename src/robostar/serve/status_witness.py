@@ -13,6 +13,11 @@ Why: an AC is 56 ms on a 9600-baud line (almost four AA times), the alarm histor
 exchange cannot be interrupted: every host read arriving during one waits for its end. A robot
 at rest, the common case for a cell waiting on it, then costs the hosts nothing.
 
+A status read within :data:`SETTLE` seconds of a state change that may move a robot starts no
+rest: a controller may answer a motion command (an inching step through the web page, say)
+before the motion shows in its status, and a position read then, confirmed after a short move
+that ended between two status reads, would be the one before the move.
+
 The limit, and why values are still read every ``rest_interval``: a motion that begins and ends
 between two status reads (the poll interval, 0.2 s by default; far less while hosts poll AA)
 shows in no status read. Such a motion, made at the pendant, is seen at the next real read, at
@@ -30,7 +35,11 @@ from collections.abc import Mapping
 from robostar.serve.model import ControllerModel
 from robostar.types import ChannelStatus
 
-__all__ = ["StatusWitness", "rests"]
+__all__ = ["SETTLE", "StatusWitness", "rests"]
+
+SETTLE = 0.5
+"""Seconds after a state change that may move a robot during which no status read starts a
+rest (the motion may not show in the status yet)."""
 
 HISTORY_KEY = "alarm_history"
 
@@ -72,6 +81,11 @@ class StatusWitness:
         channel's rest, then confirm what it vouches for."""
         if at < self._unsettled_at:
             return  # it began before the state change (and landed after): no witness of now
+        if at < self._unsettled_at + SETTLE:
+            # the change's motion (or alarm) may not show yet: this status vouches for nothing
+            self._resting_since.clear()
+            self._quiet_since = None
+            return
         for channel, status in statuses.items():
             if rests(status):
                 self._resting_since.setdefault(channel, at)
