@@ -32,6 +32,7 @@ from reliability.history_model import ModelWatcher
 from reliability.history_ops import JOB_CHANNEL, ApiConsumer, ClientConsumer
 from robostar.errors import PortError
 from robostar.serve import LineConfig, LineServer, ServeConfig
+from robostar.serve.model import ControllerModel
 from robostar.sim import SimConfig
 from robostar.sim.controller import VirtualController
 from robostar.sim.faults import parse_fault
@@ -360,7 +361,7 @@ def _rig(config: HistoryConfig) -> Iterator[Rig]:
 
 
 def _watcher(config: HistoryConfig, rig: Rig) -> ModelWatcher:
-    def model() -> Any:
+    def model() -> ControllerModel | None:
         server = rig.server.server if rig.server is not None else None
         return None if server is None else server.lines["cell1"].model
 

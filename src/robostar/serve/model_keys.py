@@ -87,7 +87,7 @@ class ModelFeed:
     answer is also a witness (:class:`StatusWitness`): it confirms the positions of the
     channels that rest, so that they need not be read again."""
 
-    def __init__(self, model: ControllerModel, rest_interval: float = 10.0) -> None:
+    def __init__(self, model: ControllerModel, rest_interval: float) -> None:
         self.model = model
         self.present: tuple[int, ...] = (1, 2, 3)
         self._absent: dict[str, Any] = {}
